@@ -1,0 +1,33 @@
+#include <CLI/CLI.hpp>
+
+#include <cstdio>
+#include <exception>
+#include <string>
+
+#include "gyrotc/app/commands.hpp"
+#include "gyrotc/app/errors.hpp"
+#include "gyrotc/app/version.hpp"
+
+int main(int argc, char** argv) {
+  CLI::App cli{
+      "gyrotc: temperature compensation and control of a MEMS gyroscope\n"
+      "(ADS1251 ADC, AD5060 DACs, DS18B20, OPA548-driven TEC; Xia et al., Sensors 2009)."};
+  cli.set_version_flag("-V,--version", std::string("gyrotc ") + gyrotc::app::kVersion);
+  cli.require_subcommand(1);
+  cli.footer("Run 'gyrotc <command> --help' for the options of a command.");
+
+  try {
+    cli.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    return cli.exit(e);
+  } catch (const gyrotc::app::CommandExit& e) {
+    return e.status();
+  } catch (const gyrotc::app::InputError& e) {
+    std::fprintf(stderr, "gyrotc: error: %s\n", e.what());
+    return 2;
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "gyrotc: error: %s\n", e.what());
+    return 1;
+  }
+  return 0;
+}

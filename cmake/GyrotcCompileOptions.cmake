@@ -1,0 +1,24 @@
+# Compile options every gyrotc target gets: the warning level of the project,
+# warnings as errors in CI, and the sanitizers of the debug preset.
+
+add_library(gyrotc_options INTERFACE)
+add_library(gyrotc::options ALIAS gyrotc_options)
+target_compile_options(gyrotc_options INTERFACE
+  -Wall -Wextra -Wpedantic -Wconversion -Wshadow
+  $<$<BOOL:${GYROTC_WERROR}>:-Werror>)
+
+if(GYROTC_SANITIZE)
+  target_compile_options(gyrotc_options INTERFACE
+    -fsanitize=address,undefined -fno-omit-frame-pointer -fno-sanitize-recover=undefined)
+  target_link_options(gyrotc_options INTERFACE -fsanitize=address,undefined)
+endif()
+
+# gyrotc_add_layer_library(<target> <folder>): a static library of every .cpp
+# under <folder>/src with public headers in <folder>/include.
+function(gyrotc_add_layer_library target folder)
+  file(GLOB_RECURSE _sources CONFIGURE_DEPENDS "${folder}/src/*.cpp")
+  add_library(${target} STATIC ${_sources})
+  target_include_directories(${target} PUBLIC
+    $<BUILD_INTERFACE:${folder}/include>)
+  target_link_libraries(${target} PRIVATE gyrotc::options)
+endfunction()

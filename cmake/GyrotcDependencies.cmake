@@ -1,0 +1,79 @@
+# Finds every third-party dependency. A missing one stops configure with the
+# Debian package that provides it (for a cross build: the :arm64 / :armhf
+# multiarch variant of the same package).
+
+if(CMAKE_CROSSCOMPILING AND CMAKE_LIBRARY_ARCHITECTURE MATCHES "aarch64")
+  set(_gyrotc_pkg_arch ":arm64")
+elseif(CMAKE_CROSSCOMPILING AND CMAKE_LIBRARY_ARCHITECTURE MATCHES "arm-linux-gnueabihf")
+  set(_gyrotc_pkg_arch ":armhf")
+else()
+  set(_gyrotc_pkg_arch "")
+endif()
+
+function(gyrotc_missing what debian_package)
+  message(FATAL_ERROR
+    "gyrotc: ${what} not found. Install the Debian package '${debian_package}' "
+    "(apt-get install ${debian_package}), or run scripts/deps.sh.")
+endfunction()
+
+find_package(Eigen3 3.3 QUIET NO_MODULE)
+if(NOT TARGET Eigen3::Eigen)
+  gyrotc_missing("Eigen3 (>= 3.3)" "libeigen3-dev")
+endif()
+
+find_package(PkgConfig QUIET)
+if(NOT PKG_CONFIG_FOUND)
+  gyrotc_missing("pkg-config" "pkg-config")
+endif()
+pkg_check_modules(GPIOD QUIET IMPORTED_TARGET libgpiod)
+if(NOT GPIOD_FOUND)
+  gyrotc_missing("libgpiod" "libgpiod-dev${_gyrotc_pkg_arch}")
+endif()
+if(GPIOD_VERSION VERSION_GREATER_EQUAL 2.0)
+  message(FATAL_ERROR
+    "gyrotc: libgpiod ${GPIOD_VERSION} found, but gyrotc uses the libgpiod 1.6 API "
+    "(Debian bookworm, Yocto kirkstone..styhead with PREFERRED_VERSION_libgpiod = \"1.6%\"). "
+    "libgpiod 2.x is not supported yet.")
+endif()
+if(GPIOD_VERSION VERSION_LESS 1.6)
+  message(FATAL_ERROR "gyrotc: libgpiod ${GPIOD_VERSION} is too old; 1.6 or later 1.x is required.")
+endif()
+
+find_package(CLI11 QUIET CONFIG)
+if(NOT TARGET CLI11::CLI11)
+  gyrotc_missing("CLI11" "libcli11-dev")
+endif()
+
+find_package(tomlplusplus QUIET CONFIG)
+if(NOT TARGET tomlplusplus::tomlplusplus)
+  gyrotc_missing("toml++ (tomlplusplus)" "libtomlplusplus-dev${_gyrotc_pkg_arch}")
+endif()
+
+find_package(nlohmann_json 3.9 QUIET CONFIG)
+if(NOT TARGET nlohmann_json::nlohmann_json)
+  gyrotc_missing("nlohmann_json (>= 3.9)" "nlohmann-json3-dev")
+endif()
+
+find_package(Threads REQUIRED)
+
+# Optional: sd_notify(READY=1, WATCHDOG=1) for Type=notify services.
+pkg_check_modules(LIBSYSTEMD QUIET IMPORTED_TARGET libsystemd)
+option(GYROTC_WITH_SYSTEMD "Use libsystemd for sd_notify (when found)" ${LIBSYSTEMD_FOUND})
+if(GYROTC_WITH_SYSTEMD AND NOT LIBSYSTEMD_FOUND)
+  gyrotc_missing("libsystemd (GYROTC_WITH_SYSTEMD=ON)" "libsystemd-dev${_gyrotc_pkg_arch}")
+endif()
+
+if(GYROTC_BUILD_TESTS)
+  # Catch2 v2 is what Debian bookworm ships; v3 is accepted where found.
+  find_package(Catch2 QUIET)
+  if(NOT Catch2_FOUND)
+    gyrotc_missing("Catch2 (GYROTC_BUILD_TESTS=ON)" "catch2")
+  endif()
+endif()
+
+if(GYROTC_BUILD_BENCH)
+  find_package(benchmark QUIET CONFIG)
+  if(NOT TARGET benchmark::benchmark)
+    gyrotc_missing("Google Benchmark (GYROTC_BUILD_BENCH=ON)" "libbenchmark-dev${_gyrotc_pkg_arch}")
+  endif()
+endif()

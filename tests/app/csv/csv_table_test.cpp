@@ -1,0 +1,56 @@
+#include "gyrotc/app/csv_table.hpp"
+
+#include <string>
+
+#include "gyrotc/app/errors.hpp"
+#include "gyrotc_catch.hpp"
+
+using gyrotc::app::CsvTable;
+using gyrotc::app::InputError;
+
+namespace {
+std::string error_of(const std::string& text, const char* column = "gyro_mv") {
+  try {
+    CsvTable::parse(text, "in.csv").numbers(column);
+  } catch (const InputError& e) {
+    return e.what();
+  }
+  return "";
+}
+}  // namespace
+
+TEST_CASE("numeric columns are read by name, skipping blank and comment lines") {
+  const auto t = CsvTable::parse("# chamber run\ntemp_c,gyro_mv\n-40,98.1\n\n-35, 105.9\r\n", "in.csv");
+  REQUIRE(t.rows() == 2);
+  CHECK(t.numbers("temp_c") == std::vector<double>{-40.0, -35.0});
+  CHECK(t.numbers("gyro_mv") == std::vector<double>{98.1, 105.9});
+  CHECK(t.line_of(1) == 5);
+}
+
+TEST_CASE("a non-numeric cell is reported with file, line and column") {
+  CHECK(error_of("temp_c,gyro_mv\n1,2\n3,abc\n") == "in.csv:3: column 'gyro_mv': 'abc' is not a number");
+}
+
+TEST_CASE("NaN and empty cells are rejected with their line") {
+  CHECK(error_of("temp_c,gyro_mv\n1,nan\n") == "in.csv:2: column 'gyro_mv': 'nan' is not a finite number");
+  CHECK(error_of("temp_c,gyro_mv\n1,\n") == "in.csv:2: column 'gyro_mv': empty cell");
+}
+
+TEST_CASE("a missing column names the columns that are there") {
+  CHECK(error_of("temp_c,bias_dps\n1,2\n") ==
+        "in.csv: missing column 'gyro_mv' (columns: temp_c, bias_dps)");
+}
+
+TEST_CASE("a row with the wrong number of fields is reported") {
+  CHECK_THROWS_WITH(CsvTable::parse("a,b\n1,2,3\n", "in.csv"), "in.csv:2: 3 fields, but the header has 2");
+}
+
+TEST_CASE("require_increasing names the first line that goes backwards") {
+  const auto t = CsvTable::parse("time_s,x\n0,1\n1,1\n1,1\n", "in.csv");
+  CHECK_THROWS_WITH(t.require_increasing("time_s"), "in.csv:4: column 'time_s' must increase (1 after 1)");
+}
+
+TEST_CASE("quoted text cells may hold commas") {
+  const auto t = CsvTable::parse("segment,description\nA,\"hold, then ramp\"\n", "in.csv");
+  CHECK(t.text("description") == std::vector<std::string>{"hold, then ramp"});
+}
