@@ -16,11 +16,11 @@ for w in "${want[@]}"; do
     aarch64)
       need_arch+=(arm64)
       pkgs+=(g++-aarch64-linux-gnu qemu-user libgpiod-dev:arm64 libtomlplusplus-dev:arm64
-             libbenchmark-dev:arm64 libsystemd-dev:arm64) ;;
+             libbenchmark-dev:arm64) ;;
     armhf)
       need_arch+=(armhf)
       pkgs+=(g++-arm-linux-gnueabihf qemu-user libgpiod-dev:armhf libtomlplusplus-dev:armhf
-             libbenchmark-dev:armhf libsystemd-dev:armhf) ;;
+             libbenchmark-dev:armhf) ;;
     bench)
       pkgs+=(rt-tests) ;;
     *) echo "deps.sh: unknown set '$w' (native, aarch64, armhf, bench)" >&2; exit 2 ;;
