@@ -1,0 +1,105 @@
+#pragma once
+
+#include <cstddef>
+#include <string>
+#include <vector>
+
+// What the discrepancy workflow reports, whatever the target: the baseline
+// gap, where it is worst, the effects added (with parameters and standard
+// errors), the verdict, and the curves to plot.
+namespace gyrotc::identify {
+
+// Thresholds of the decision. The defaults were fixed on the training seeds
+// of tools/identify_sweep (docs/IDENTIFY.md) and are reported on other seeds.
+struct Criteria {
+  // BIC improvement (with the effective sample size) an effect must bring.
+  double min_delta_bic = 25.0;
+  // |parameter| / standard error of the effect's amplitude.
+  double min_t_ratio = 4.0;
+  // Held-out (blocked cross-validation) sum of squares must fall by this
+  // fraction, and in at least min_folds_improved of the folds.
+  double min_cv_gain = 0.02;
+  int min_folds_improved = 3;
+  // Two passing candidates closer than this in BIC, or whose added signals
+  // correlate more than max_signal_correlation, are reported as ambiguous.
+  double ambiguous_delta_bic = 30.0;
+  double max_signal_correlation = 0.999;
+};
+
+struct EffectParam {
+  std::string name;  // e.g. "tau_s"
+  double value = 0.0;
+  double std_error = 0.0;
+};
+
+struct AddedEffect {
+  std::string effect;
+  std::vector<EffectParam> params;
+  double delta_bic = 0.0;
+  double rms_after = 0.0;
+  std::vector<double> fold_rms_before;  // held-out RMS per fold without / with it
+  std::vector<double> fold_rms_after;
+};
+
+// One candidate tried in one round, and why it was or was not kept.
+struct CandidateScore {
+  int round = 0;
+  std::string effect;
+  double delta_bic = 0.0;
+  double cv_gain = 0.0;  // fractional fall of the held-out sum of squares
+  int folds_improved = 0;
+  double t_ratio = 0.0;
+  bool in_bounds = false;
+  bool passed = false;
+  std::string reason;  // empty when passed
+};
+
+struct Region {
+  std::string name;     // "ramp up", "hold", "first 10 min", "band 20..30 C", ...
+  double start = 0.0;   // in the units of Identification::x_name
+  double end = 0.0;
+  std::size_t samples = 0;
+  double rms = 0.0;
+  double mean = 0.0;
+};
+
+// Correlation of the baseline residual with a candidate driving signal.
+struct SignalCorrelation {
+  std::string signal;  // "dT/dt", "sign(dT/dt)", "time since power-on", "tec_a^2"
+  double r = 0.0;      // Pearson correlation
+};
+
+struct Identification {
+  std::string target;
+  std::string units;   // units of the residual (mV, C, ln(Q), Hz)
+  std::string x_name;  // "time_s" or "temp_c"
+
+  // Parameters of the calibrated baseline worth reporting (may be empty).
+  std::vector<EffectParam> baseline_params;
+  double baseline_rms = 0.0;
+  double baseline_max_abs = 0.0;
+  double whiteness_p_before = 0.0;  // Ljung-Box p-value of the residual
+
+  std::vector<Region> regions;  // worst first
+  std::vector<SignalCorrelation> correlations;  // time series only
+  std::vector<AddedEffect> added;
+  std::vector<CandidateScore> tried;
+  std::string verdict;  // effect | a+b | none | ambiguous:a+b
+  std::string note;     // why candidates were not tried (empty when all were)
+
+  double final_rms = 0.0;
+  double final_max_abs = 0.0;
+  double whiteness_p_after = 0.0;
+  double shrink = 1.0;
+
+  // Curves for the plots (the fitted samples; binned for long records).
+  std::vector<double> x;
+  std::vector<double> measured;
+  std::vector<double> baseline_model;
+  std::vector<double> final_model;
+  // The signal the first added (or ambiguous) effect acts through, and its name.
+  std::string effect_signal_name;
+  std::vector<double> effect_signal;
+};
+
+}  // namespace gyrotc::identify

@@ -1,0 +1,53 @@
+#pragma once
+
+#include <Eigen/Dense>
+
+#include <functional>
+#include <vector>
+
+// Least squares for models that are linear in most parameters and nonlinear
+// in a few (time constants, activation energies): y = offset(theta) +
+// X(theta) * beta. The linear amplitudes beta are solved exactly for every
+// theta (variable projection); theta is searched on a coarse grid and then
+// refined by Levenberg-Marquardt on the projected residual.
+namespace gyrotc::identify {
+
+struct SeparableModel {
+  // Fills the design matrix (rows = samples) and the known offset for theta.
+  std::function<void(const std::vector<double>& theta, Eigen::MatrixXd& design,
+                      Eigen::VectorXd& offset)>
+      evaluate;
+  std::vector<double> theta_lower;  // physical bounds of theta (inclusive)
+  std::vector<double> theta_upper;
+  // Grid of starting points for theta; empty when theta is empty.
+  std::vector<std::vector<double>> theta_grid;
+};
+
+struct SeparableFit {
+  std::vector<double> theta;
+  Eigen::VectorXd beta;
+  Eigen::VectorXd prediction;
+  Eigen::VectorXd residual;  // y - prediction
+  double sse = 0.0;
+  // Unscaled covariance (J^T J)^-1 of [beta; theta]; multiply by the
+  // residual variance (and an autocorrelation inflation) for standard errors.
+  Eigen::MatrixXd covariance_unscaled;
+  bool theta_at_bound = false;
+};
+
+// The Cartesian product of per-parameter grids: the theta_grid of a model
+// with several nonlinear parameters.
+std::vector<std::vector<double>> grid_product(const std::vector<std::vector<double>>& axes);
+
+// Linear LS of y on design (columns scaled internally, tiny ridge so that
+// empty spline intervals do not break the solve). Returns beta.
+Eigen::VectorXd solve_linear(const Eigen::MatrixXd& design, const Eigen::VectorXd& y);
+
+SeparableFit fit_separable(const Eigen::VectorXd& y, const SeparableModel& model);
+
+// Only the linear part, theta fixed: for cross-validation refits.
+Eigen::VectorXd predict_with_theta(const Eigen::VectorXd& y, const SeparableModel& model,
+                                   const std::vector<double>& theta,
+                                   const std::vector<bool>& train);
+
+}  // namespace gyrotc::identify

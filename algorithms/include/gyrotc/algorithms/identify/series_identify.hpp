@@ -1,0 +1,57 @@
+#pragma once
+
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "gyrotc/algorithms/identify/identification.hpp"
+
+// The workflow on time series (what `gyrotc record` / `simulate --out`
+// write): gyro_mv against the DS18B20 reading, or sensor_c against the
+// chamber and the TEC drive.
+//
+// gyro_mv baseline: the bias is a flexible function of the sensor
+// temperature (cubic B-spline, number of knots chosen by BIC), calibrated to
+// the record, so that only what a curve in T cannot absorb is left.
+// Candidates: thermal_lag, rate_sensitivity, ramp_hysteresis, warm_up,
+// linear_drift (model/effects.hpp). T is the sensor reading smoothed over
+// `smooth_s` (centred, no lag) and dT/dt its centred difference.
+//
+// sensor_c baseline: one-node RC casing, T = a*L[ambient] + g*L[tec_a] +
+// c + e*exp(-t/tau) with L the unit-gain first-order lag of time constant
+// tau (fitted). Candidate: tec_joule_heating (+ k*L[tec_a^2]; r_ohm = 2 k /
+// r_th, with r_th the casing-to-ambient thermal resistance given).
+//
+// Long records are averaged into at most max_bins equal time bins before
+// fitting (thermal effects are slow); cost is linear in the record length.
+namespace gyrotc::identify {
+
+struct SeriesRecord {
+  std::vector<double> time_s;
+  std::vector<double> ambient_c;
+  std::vector<double> sensor_c;
+  std::vector<double> gyro_mv;
+  std::vector<double> tec_a;  // may be empty (gyro_mv target)
+};
+
+struct SeriesOptions {
+  double smooth_s = 60.0;
+  std::size_t max_bins = 3000;
+  int folds = 5;
+  double cv_block_s = 300.0;
+  double casing_r_th_k_per_w = 5.0;  // sensor_c target: converts k to r_ohm
+  // gyro_mv: the base model's own lag from the sensed casing to the die
+  // (the plant's die capacity / casing-die conductance); 0 takes the sensor
+  // temperature as the die's. Effects then act on top of it, as in the plant.
+  double base_die_tau_s = 0.0;
+};
+
+enum class SeriesTarget { gyro_mv, sensor_c };
+
+// Throws std::invalid_argument for records that are too short, not
+// increasing in time, or lack the columns the target needs.
+Identification identify_series(const SeriesRecord& record, SeriesTarget target,
+                               const SeriesOptions& options = {}, const Criteria& criteria = {},
+                               const std::function<void(double)>& progress = {});
+
+}  // namespace gyrotc::identify

@@ -1,0 +1,92 @@
+#include "gyrotc/algorithms/identify/residual_stats.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+namespace gyrotc::identify {
+namespace {
+
+// Regularised upper incomplete gamma Q(a, x): series below a + 1,
+// continued fraction above (the usual split; both converge fast there).
+double upper_gamma_q(double a, double x) {
+  if (x <= 0.0) return 1.0;
+  const double log_prefix = -x + a * std::log(x) - std::lgamma(a);
+  if (x < a + 1.0) {
+    double sum = 1.0 / a;
+    double term = sum;
+    for (int n = 1; n < 1000; ++n) {
+      term *= x / (a + n);
+      sum += term;
+      if (std::fabs(term) < std::fabs(sum) * 1e-15) break;
+    }
+    return std::clamp(1.0 - sum * std::exp(log_prefix), 0.0, 1.0);
+  }
+  const double tiny = 1e-300;
+  double b = x + 1.0 - a;
+  double c = 1.0 / tiny;
+  double d = 1.0 / b;
+  double h = d;
+  for (int i = 1; i < 1000; ++i) {
+    const double an = -i * (i - a);
+    b += 2.0;
+    d = an * d + b;
+    if (std::fabs(d) < tiny) d = tiny;
+    c = b + an / c;
+    if (std::fabs(c) < tiny) c = tiny;
+    d = 1.0 / d;
+    const double delta = d * c;
+    h *= delta;
+    if (std::fabs(delta - 1.0) < 1e-15) break;
+  }
+  return std::clamp(std::exp(log_prefix) * h, 0.0, 1.0);
+}
+
+double autocorrelation(std::span<const double> r, double mean, double var, std::size_t lag) {
+  double s = 0.0;
+  for (std::size_t i = lag; i < r.size(); ++i) s += (r[i] - mean) * (r[i - lag] - mean);
+  return s / (static_cast<double>(r.size()) * var);
+}
+
+}  // namespace
+
+double chi_square_sf(double x, double dof) { return upper_gamma_q(0.5 * dof, 0.5 * x); }
+
+double ljung_box_p(std::span<const double> residual, std::size_t lags) {
+  const std::size_t n = residual.size();
+  if (n < 4) return 1.0;
+  lags = std::clamp<std::size_t>(lags, 1, n / 2);
+  double mean = 0.0;
+  for (double v : residual) mean += v;
+  mean /= static_cast<double>(n);
+  double var = 0.0;
+  for (double v : residual) var += (v - mean) * (v - mean);
+  var /= static_cast<double>(n);
+  if (var <= 0.0) return 1.0;
+  const double nd = static_cast<double>(n);
+  double q = 0.0;
+  for (std::size_t k = 1; k <= lags; ++k) {
+    const double rho = autocorrelation(residual, mean, var, k);
+    q += rho * rho / (nd - static_cast<double>(k));
+  }
+  q *= nd * (nd + 2.0);
+  return chi_square_sf(q, static_cast<double>(lags));
+}
+
+double lag1_autocorrelation(std::span<const double> residual) {
+  const std::size_t n = residual.size();
+  if (n < 3) return 0.0;
+  double mean = 0.0;
+  for (double v : residual) mean += v;
+  mean /= static_cast<double>(n);
+  double var = 0.0;
+  for (double v : residual) var += (v - mean) * (v - mean);
+  var /= static_cast<double>(n);
+  if (var <= 0.0) return 0.0;
+  return std::clamp(autocorrelation(residual, mean, var, 1), 0.0, 0.99);
+}
+
+double effective_sample_size(std::size_t n, double rho) {
+  return std::max(2.0, static_cast<double>(n) * (1.0 - rho) / (1.0 + rho));
+}
+
+}  // namespace gyrotc::identify

@@ -1,0 +1,179 @@
+#include <cmath>
+#include <stdexcept>
+#include <vector>
+
+#include "gyrotc/algorithms/control/pid.hpp"
+#include "gyrotc_catch.hpp"
+
+using gyrotc::control::IncrementalPid;
+using gyrotc::control::PidParams;
+
+namespace {
+
+// Wide limits so that the controller never saturates.
+PidParams unsaturated_params() {
+  PidParams p;
+  p.out_min = -1e9;
+  p.out_max = 1e9;
+  return p;
+}
+
+}  // namespace
+
+TEST_CASE("default parameters are the seed's Kp 0.48, KI 0.32, KD 10, T 2 s, xi 0.5 C") {
+  const PidParams p;
+  CHECK(p.kp == Approx(0.48));
+  CHECK(p.ki() == Approx(0.32));
+  CHECK(p.kd() == Approx(10.0));
+  CHECK(p.period_s == Approx(2.0));
+  CHECK(p.xi_c == Approx(0.5));
+}
+
+TEST_CASE("A, B, C follow Eq. 17 from Kp, TI, TD and T") {
+  const IncrementalPid pid{PidParams{}};
+  // A = Kp(1 + T/TI + TD/T) = Kp + KI + KD; B = Kp(1 + 2TD/T) = Kp + 2KD; C = KD.
+  CHECK(pid.a(true) == Approx(0.48 + 0.32 + 10.0));
+  CHECK(pid.a(false) == Approx(0.48 + 10.0));
+  CHECK(pid.b() == Approx(0.48 + 20.0));
+  CHECK(pid.c() == Approx(10.0));
+
+  PidParams other = PidParams::from_gains(1.5, 0.25, 3.0, 0.5);
+  const IncrementalPid pid2{other};
+  const double t = 0.5;
+  CHECK(pid2.a(true) == Approx(1.5 * (1.0 + t / other.ti_s + other.td_s / t)));
+  CHECK(pid2.b() == Approx(1.5 * (1.0 + 2.0 * other.td_s / t)));
+  CHECK(pid2.c() == Approx(1.5 * other.td_s / t));
+}
+
+TEST_CASE("a casing colder than the setpoint drives the output positive (heating)") {
+  IncrementalPid pid{PidParams{}};
+  CHECK(pid.step(16.0, 55.0) > 0.0);
+  IncrementalPid hot{PidParams{}};
+  CHECK(hot.step(60.0, 55.0) < 0.0);
+}
+
+TEST_CASE("the increment equals Eq. 17 applied with the heating sign") {
+  IncrementalPid pid{unsaturated_params()};
+  const std::vector<double> temps{54.8, 54.7, 54.9, 55.2, 55.1};
+  double u = pid.step(temps[0], 55.0);
+  double e2 = temps[0] - 55.0;  // bumpless start: history equals the first error
+  double e1 = e2;
+  for (std::size_t k = 1; k < temps.size(); ++k) {
+    const double e = temps[k] - 55.0;
+    const double expected = u - (pid.a(true) * e - pid.b() * e1 + pid.c() * e2);
+    u = pid.step(temps[k], 55.0);
+    CHECK(u == Approx(expected).margin(1e-12));
+    e2 = e1;
+    e1 = e;
+  }
+}
+
+TEST_CASE("the integral term works only inside the band |e| <= xi") {
+  IncrementalPid pid{unsaturated_params()};
+  pid.step(50.0, 55.0);  // |e| = 5 > 0.5: PD
+  CHECK_FALSE(pid.integrating());
+  // A constant error outside the band leaves the output constant (PD only).
+  const double held = pid.step(50.0, 55.0);
+  CHECK(pid.step(50.0, 55.0) == Approx(held));
+  CHECK_FALSE(pid.integrating());
+
+  IncrementalPid inside{unsaturated_params()};
+  inside.step(54.5, 55.0);  // |e| = 0.5 = xi: PID
+  CHECK(inside.integrating());
+  const double u1 = inside.step(54.5, 55.0);
+  const double u2 = inside.step(54.5, 55.0);
+  // Constant error inside the band: each step adds KI * |e| of heating.
+  CHECK(u2 - u1 == Approx(0.32 * 0.5));
+  IncrementalPid just_outside{unsaturated_params()};
+  just_outside.step(54.49, 55.0);
+  CHECK_FALSE(just_outside.integrating());
+}
+
+TEST_CASE("the incremental form equals a positional PID while unsaturated") {
+  const PidParams p = unsaturated_params();
+  IncrementalPid pid{p};
+  pid.reset(0.7);
+  // Positional integral-separated PID with the same sign convention:
+  // u = -(Kp e + KD (e - e_prev)) + I,  I -= beta KI e.
+  double integral = 0.7;
+  double e_prev = 0.0;
+  bool first = true;
+  for (int k = 0; k < 200; ++k) {
+    const double measured = 55.0 + 1.2 * std::sin(0.07 * k) * std::exp(-0.01 * k) +
+                            0.03 * std::cos(1.3 * k);
+    const double e = measured - 55.0;
+    if (first) e_prev = e;
+    first = false;
+    if (std::fabs(e) <= p.xi_c) integral -= p.ki() * e;
+    const double positional = -(p.kp * e + p.kd() * (e - e_prev)) + integral;
+    e_prev = e;
+    REQUIRE(pid.step(measured, 55.0) == Approx(positional).margin(1e-9));
+    REQUIRE_FALSE(pid.saturated());
+  }
+}
+
+TEST_CASE("bumpless start: no derivative kick, output continues from reset value at zero error") {
+  IncrementalPid pid{PidParams{}};
+  pid.reset(1.25);
+  CHECK(pid.output() == Approx(1.25));
+  CHECK(pid.step(55.0, 55.0) == Approx(1.25));
+  CHECK(pid.step(55.0, 55.0) == Approx(1.25));
+
+  // A first error of 0.3 C gives the proportional and integral part only, not
+  // the KD * 0.3 = 3 A derivative kick.
+  IncrementalPid fresh{PidParams{}};
+  CHECK(fresh.step(54.7, 55.0) == Approx(0.48 * 0.3 + 0.32 * 0.3));
+}
+
+TEST_CASE("output stays within the limits and reports saturation") {
+  IncrementalPid pid{PidParams{}};
+  CHECK(pid.step(16.0, 55.0) == Approx(2.0));
+  CHECK(pid.saturated());
+  CHECK(pid.step(90.0, 55.0) == Approx(-2.0));
+  CHECK(pid.saturated());
+}
+
+TEST_CASE("a large setpoint step keeps heating at the limit until the proportional band") {
+  // Warm up at 0.02 C per period from 16 C: the output must stay at the rail
+  // while Kp |e| - KD * 0.02 > out_max, i.e. up to about 50 C (a velocity form
+  // that clamped its own state would fall off the rail after a few degrees).
+  IncrementalPid pid{PidParams{}};
+  for (double t = 16.0; t < 45.0; t += 0.02) {
+    REQUIRE(pid.step(t, 55.0) == Approx(2.0));
+  }
+}
+
+TEST_CASE("saturation inside the band does not wind up the integral") {
+  PidParams p;
+  p.out_min = -0.1;
+  p.out_max = 0.1;
+  IncrementalPid pid{p};
+  // 0.4 C too cold inside the band for a long time: the output sits at the limit.
+  for (int k = 0; k < 500; ++k) pid.step(54.6, 55.0);
+  CHECK(pid.output() == Approx(0.1));
+  // Once slightly too hot, the output must leave the heating limit at once
+  // (a wound-up integral of 500 * 0.128 A would keep it there for hundreds of steps).
+  pid.step(55.05, 55.0);
+  pid.step(55.05, 55.0);
+  CHECK(pid.output() < 0.1);
+}
+
+TEST_CASE("a non-finite measurement leaves output and state unchanged") {
+  IncrementalPid pid{PidParams{}};
+  pid.step(54.8, 55.0);
+  const double before = pid.output();
+  CHECK(pid.step(std::nan(""), 55.0) == Approx(before));
+  CHECK(pid.step(INFINITY, 55.0) == Approx(before));
+  IncrementalPid twin{PidParams{}};
+  twin.step(54.8, 55.0);
+  CHECK(pid.step(54.9, 55.0) == Approx(twin.step(54.9, 55.0)));
+}
+
+TEST_CASE("invalid parameters are rejected naming the field") {
+  PidParams p;
+  p.ti_s = 0.0;
+  CHECK_THROWS_WITH(IncrementalPid{p}, Catch::Contains("ti_s"));
+  PidParams q;
+  q.out_min = 3.0;
+  CHECK_THROWS_WITH(IncrementalPid{q}, Catch::Contains("out_min"));
+}

@@ -1,0 +1,246 @@
+#include <cmath>
+#include <stdexcept>
+#include <vector>
+
+#include "gyrotc/algorithms/model/gyro_bias_curve.hpp"
+#include "gyrotc/algorithms/model/plant.hpp"
+#include "gyrotc_catch.hpp"
+
+using gyrotc::model::Plant;
+using gyrotc::model::PlantParams;
+
+namespace {
+
+// A plant that reaches steady state quickly in step count: coarse steps are
+// fine for a backward-Euler network at steady state.
+PlantParams coarse(double step_s = 5.0) {
+  PlantParams p;
+  p.max_thermal_step_s = step_s;
+  p.initial_temp_c = 16.0;
+  return p;
+}
+
+// The DAC voltage that commands current_a (mid-scale = 0 A).
+double drive_v_for(const PlantParams& p, double current_a) {
+  return 0.5 * p.dac_vref_v + current_a / p.gain_a_per_v;
+}
+
+void run(Plant& plant, double seconds) {
+  plant.advance(seconds);
+  plant.flush();
+}
+
+}  // namespace
+
+TEST_CASE("with the TEC off and no internal power the plant settles at the ambient temperature") {
+  PlantParams p = coarse();
+  p.internal_power_w = 0.0;
+  Plant plant(p, 1);
+  plant.set_ambient_c(30.0);
+  run(plant, 200'000.0);
+  CHECK(plant.shell_c() == Approx(30.0).margin(1e-6));
+  CHECK(plant.casing_c() == Approx(30.0).margin(1e-6));
+  CHECK(plant.die_c() == Approx(30.0).margin(1e-6));
+}
+
+TEST_CASE("a constant internal power P raises the casing above ambient by P / G") {
+  PlantParams p = coarse();
+  p.internal_power_w = 0.5;
+  Plant plant(p, 1);
+  plant.set_ambient_c(-10.0);
+  run(plant, 300'000.0);
+  const double expected_rise_c = p.internal_power_w / p.casing_ambient_w_per_k();
+  CHECK(plant.casing_c() - plant.ambient_c() == Approx(expected_rise_c).epsilon(1e-6));
+  CHECK(plant.die_c() == Approx(plant.casing_c()).margin(1e-6));  // no power in the die
+}
+
+TEST_CASE("positive TEC current heats the casing and negative current cools it") {
+  PlantParams p;
+  p.internal_power_w = 0.0;
+  p.initial_temp_c = 20.0;
+  Plant heating(p, 1);
+  Plant cooling(p, 1);
+  heating.set_ambient_c(20.0);
+  cooling.set_ambient_c(20.0);
+  heating.set_tec_enabled(true);
+  cooling.set_tec_enabled(true);
+  heating.set_tec_drive_v(drive_v_for(p, 0.5));
+  cooling.set_tec_drive_v(drive_v_for(p, -0.5));
+  run(heating, 600.0);
+  run(cooling, 600.0);
+  CHECK(heating.tec_current_a() == Approx(0.5).margin(1e-3));
+  CHECK(cooling.tec_current_a() == Approx(-0.5).margin(1e-3));
+  CHECK(heating.casing_c() > 25.0);
+  CHECK(heating.shell_c() < 20.0);  // the TEC pumps heat out of the shell
+  CHECK(cooling.casing_c() < 17.0);
+}
+
+TEST_CASE("the TEC stage maps mid-scale to 0 A, limits the current and is off when disabled") {
+  PlantParams p;
+  Plant plant(p, 1);
+  plant.set_tec_drive_v(0.5 * p.dac_vref_v);
+  plant.set_tec_enabled(true);
+  CHECK(plant.tec_current_a() == 0.0);
+  plant.set_tec_drive_v(p.dac_vref_v);  // far above the limit
+  CHECK(plant.tec_current_a() == Approx(p.current_limit_a));
+  CHECK(plant.tec_limited());
+  plant.set_tec_enabled(false);
+  CHECK(plant.tec_current_a() == 0.0);
+}
+
+TEST_CASE("the TEC voltage obeys V = S dT + I R and stays inside the OPA548 rails") {
+  PlantParams p;
+  p.current_limit_a = 5.0;  // let the rails be the limit
+  Plant plant(p, 1);
+  plant.set_tec_enabled(true);
+  plant.set_tec_drive_v(p.dac_vref_v);
+  run(plant, 10.0);
+  const double v = plant.tec_voltage_v();
+  CHECK(v == Approx(p.tec_seebeck_v_per_k * (plant.casing_c() - plant.shell_c()) +
+                    plant.tec_current_a() * p.tec_resistance_ohm));
+  CHECK(v <= p.supply_pos_v - p.rail_headroom_v + 0.05);
+  CHECK(plant.tec_current_a() < 5.0);
+}
+
+TEST_CASE("the backward-Euler network is stable at the largest step, even with a tiny die") {
+  PlantParams stiff = coarse(100.0);   // the largest step anyone would use
+  stiff.die_capacity_j_per_k = 1e-4;   // tau_die = 2.5 ms
+  PlantParams fine = stiff;
+  fine.max_thermal_step_s = 0.1;       // the simulator's default step
+  Plant a(stiff, 1);
+  Plant b(fine, 1);
+  for (Plant* plant : {&a, &b}) {
+    plant->set_ambient_c(-30.0);
+    plant->set_tec_enabled(true);
+    plant->set_tec_drive_v(drive_v_for(stiff, 0.4));
+  }
+  double previous_die_c = a.die_c();
+  for (int k = 0; k < 200; ++k) {  // 20 000 s
+    run(a, 100.0);
+    REQUIRE(std::isfinite(a.die_c()));
+    CHECK(std::fabs(a.die_c() - a.casing_c()) < 0.5);  // the die follows the casing, no ringing
+    previous_die_c = a.die_c();
+  }
+  run(b, 20'000.0);
+  CHECK(previous_die_c == Approx(b.die_c()).margin(0.05));
+  CHECK(a.casing_c() == Approx(b.casing_c()).margin(0.05));
+}
+
+TEST_CASE("time given in small pieces reaches the same state as one large advance") {
+  PlantParams p;
+  Plant pieces(p, 1);
+  Plant whole(p, 1);
+  for (Plant* plant : {&pieces, &whole}) {
+    plant->set_ambient_c(0.0);
+    plant->set_tec_enabled(true);
+    plant->set_tec_drive_v(drive_v_for(p, 0.3));
+  }
+  for (int k = 0; k < 100'000; ++k) pieces.advance(1e-3);
+  pieces.flush();
+  run(whole, 100.0);
+  CHECK(pieces.time_s() == Approx(100.0));
+  CHECK(pieces.casing_c() == Approx(whole.casing_c()).margin(1e-3));
+}
+
+TEST_CASE("gyro samples are deterministic for a seed and differ between seeds") {
+  PlantParams p;
+  Plant a(p, 42);
+  Plant b(p, 42);
+  Plant c(p, 43);
+  bool all_equal = true;
+  bool any_different = false;
+  for (int k = 0; k < 5000; ++k) {
+    a.advance(1e-3);
+    b.advance(1e-3);
+    c.advance(1e-3);
+    const double va = a.gyro_mv(1e-3);
+    all_equal = all_equal && va == b.gyro_mv(1e-3);
+    any_different = any_different || va != c.gyro_mv(1e-3);
+  }
+  CHECK(all_equal);
+  CHECK(any_different);
+}
+
+TEST_CASE("the zero-rate output follows seed Table 2 at the die temperature, with ARW noise") {
+  PlantParams p;
+  p.bias_instability_dps = 0.0;
+  p.initial_temp_c = 25.0;
+  Plant plant(p, 7);
+  CHECK(plant.gyro_bias_mv() == Approx(79.9));  // Table 2 at 25 C
+  const int n = 20'000;
+  double sum = 0.0;
+  double sum2 = 0.0;
+  for (int k = 0; k < n; ++k) {
+    const double v = plant.gyro_mv(1e-3);
+    sum += v;
+    sum2 += v * v;
+  }
+  const double mean = sum / n;
+  const double sd = std::sqrt(sum2 / n - mean * mean);
+  const double expected_sd = p.scale_mv_per_dps * p.arw_deg_per_sqrt_h / 60.0 * std::sqrt(1000.0);
+  CHECK(mean == Approx(79.9).margin(5.0 * expected_sd / std::sqrt(n)));  // 5 standard errors
+  CHECK(sd == Approx(expected_sd).epsilon(0.03));
+  plant.set_rate_dps(10.0);
+  double with_rate = 0.0;
+  for (int k = 0; k < n; ++k) with_rate += plant.gyro_mv(1e-3);
+  CHECK(with_rate / n - mean == Approx(10.0 * p.scale_mv_per_dps).margin(7.0 * expected_sd / std::sqrt(n)));
+}
+
+TEST_CASE("the Table 2 curve passes through every measured point and is continuous") {
+  for (std::size_t i = 0; i < gyrotc::model::kTable2GyroMv.size(); ++i) {
+    const double t = gyrotc::model::kTable2FirstC + 5.0 * static_cast<double>(i);
+    CHECK(gyrotc::model::table2_bias_mv(t) == Approx(gyrotc::model::kTable2GyroMv[i]).margin(1e-9));
+    CHECK(gyrotc::model::table2_bias_mv(t + 1e-7) == Approx(gyrotc::model::kTable2GyroMv[i]).margin(1e-4));
+  }
+  // Seed Table 1 (drive mode): 2471.60 Hz and Q 9886 at 20 C.
+  CHECK(gyrotc::model::table1_drive_frequency_hz(20.0) == Approx(2471.60));
+  CHECK(gyrotc::model::table1_drive_q(20.0) == Approx(9886.0));
+}
+
+TEST_CASE("named effects switched on in PlantParams act on the plant") {
+  PlantParams base = coarse();
+  base.internal_power_w = 0.0;
+  PlantParams joule = base;
+  joule.effects.tec_joule_heating = gyrotc::model::TecJouleHeatingEffect{10.0};
+  Plant a(base, 1);
+  Plant b(joule, 1);
+  for (Plant* plant : {&a, &b}) {
+    plant->set_ambient_c(16.0);
+    plant->set_tec_enabled(true);
+    plant->set_tec_drive_v(drive_v_for(base, 0.3));
+  }
+  run(a, 50'000.0);
+  run(b, 50'000.0);
+  // The casing receives 0.3^2 * 10 / 2 = 0.45 W more.
+  CHECK(b.casing_c() - a.casing_c() > 0.1);
+
+  PlantParams warm = base;
+  warm.bias_instability_dps = 0.0;
+  warm.effects.warm_up = gyrotc::model::WarmUpEffect{5.0, 600.0};
+  Plant w(warm, 1);
+  CHECK(w.gyro_bias_mv() == Approx(gyrotc::model::table2_bias_mv(16.0) + 5.0));
+}
+
+TEST_CASE("parameters that are not physical are rejected with the field's name") {
+  PlantParams p;
+  p.casing_capacity_j_per_k = 0.0;
+  CHECK_THROWS_WITH(Plant(p, 1), Catch::Contains("casing_capacity_j_per_k"));
+  PlantParams q;
+  q.opa548_restart_c = 170.0;
+  CHECK_THROWS_WITH(Plant(q, 1), Catch::Contains("opa548_restart_c"));
+}
+
+TEST_CASE("the OPA548 shuts down when its junction overheats and restarts after cooling") {
+  PlantParams p;
+  p.opa548_theta_ja_c_per_w = 80.0;  // no heat sink: 2.5 W dissipated -> +200 C
+  Plant plant(p, 1);
+  plant.set_ambient_c(40.0);
+  plant.set_tec_enabled(true);
+  plant.set_tec_drive_v(drive_v_for(p, 1.0));
+  run(plant, 300.0);
+  CHECK(plant.opa548_thermal_shutdown());
+  CHECK(plant.tec_current_a() == 0.0);
+  plant.set_tec_enabled(false);
+  run(plant, 300.0);
+  CHECK_FALSE(plant.opa548_thermal_shutdown());
+}

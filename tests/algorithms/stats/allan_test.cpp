@@ -1,0 +1,150 @@
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <random>
+#include <stdexcept>
+#include <vector>
+
+#include "gyrotc/algorithms/stats/allan.hpp"
+#include "gyrotc_catch.hpp"
+
+using namespace gyrotc::stats;
+
+namespace {
+
+// Reference: overlapping Allan variance straight from its definition, O(n*m):
+// the mean of every run of m samples, then half the mean squared difference
+// of runs m apart.
+double direct_avar(const std::vector<double>& y, std::size_t m) {
+  const std::size_t n = y.size();
+  std::vector<double> avg(n - m + 1);
+  for (std::size_t k = 0; k + m <= n; ++k) {
+    double s = 0.0;
+    for (std::size_t j = 0; j < m; ++j) s += y[k + j];
+    avg[k] = s / static_cast<double>(m);
+  }
+  double sum = 0.0;
+  std::size_t terms = 0;
+  for (std::size_t k = 0; k + m < avg.size(); ++k) {
+    const double d = avg[k + m] - avg[k];
+    sum += d * d;
+    ++terms;
+  }
+  return sum / (2.0 * static_cast<double>(terms));
+}
+
+// White rate noise of density n_true (units*sqrt(s)) plus a rate random walk
+// of density k_true (units/sqrt(s)) at rate_hz.
+std::vector<double> synthetic(std::size_t n, double rate_hz, double n_true, double k_true, unsigned seed) {
+  std::mt19937_64 rng(seed);
+  std::normal_distribution<double> g(0.0, 1.0);
+  const double tau0 = 1.0 / rate_hz;
+  const double white_sigma = n_true / std::sqrt(tau0);
+  const double walk_step = k_true * std::sqrt(tau0);
+  std::vector<double> y(n);
+  double walk = 0.0;
+  for (std::size_t i = 0; i < n; ++i) {
+    walk += walk_step * g(rng);
+    y[i] = 0.7 + walk + white_sigma * g(rng);
+  }
+  return y;
+}
+
+}  // namespace
+
+TEST_CASE("overlapping Allan deviation from cumulative sums matches the O(n*m) definition to 1e-12") {
+  std::mt19937_64 rng(7);
+  std::normal_distribution<double> g(0.0, 1.0);
+  std::vector<double> y(501);
+  double walk = 0.0;
+  for (auto& v : y) {
+    walk += 0.05 * g(rng);
+    v = 3.0 + walk + g(rng);
+  }
+  const AllanResult r = allan_deviation(y, 50.0);
+  REQUIRE(r.points.size() > 10);
+  CHECK(r.points.back().m == 250);
+  for (const auto& p : r.points) {
+    const double ref = std::sqrt(direct_avar(y, p.m));
+    INFO("m = " << p.m);
+    CHECK(std::fabs(p.adev - ref) <= 1e-12 * ref);
+    CHECK(p.tau_s == Approx(static_cast<double>(p.m) / 50.0));
+  }
+}
+
+TEST_CASE("cluster sizes are log-spaced, finer than octaves, from 1 to n/2") {
+  const auto sizes = allan_cluster_sizes(100000, 10.0);
+  REQUIRE(sizes.front() == 1);
+  CHECK(sizes.back() <= 50000);
+  CHECK(sizes.back() > 25000);
+  for (std::size_t i = 1; i < sizes.size(); ++i) {
+    CHECK(sizes[i] > sizes[i - 1]);
+    CHECK(static_cast<double>(sizes[i]) <= 2.0 * static_cast<double>(sizes[i - 1]));
+  }
+}
+
+TEST_CASE("white noise: the angle random walk N is recovered within 10 %") {
+  const double n_true = 0.01;  // deg/sqrt(s)
+  for (unsigned seed : {1u, 2u, 3u}) {
+    const auto y = synthetic(200000, 100.0, n_true, 0.0, seed);
+    const AllanResult r = allan_deviation(y, 100.0);
+    REQUIRE(r.arw.valid);
+    INFO("seed " << seed << ": N = " << r.arw.value_at_ref);
+    CHECK(std::fabs(r.arw.value_at_ref - n_true) <= 0.10 * n_true);
+    // No random walk in the record: K fits to (nearly) nothing.
+    CHECK(r.rrw.value_at_ref < 0.05 * n_true);
+    // The white-noise point at tau = 1 s sits on the line.
+    for (const auto& p : r.points) {
+      if (p.m == 100) CHECK(p.adev == Approx(n_true).epsilon(0.05));
+    }
+  }
+}
+
+TEST_CASE("white noise plus rate random walk: N and K are recovered within 10 %") {
+  const double n_true = 0.01;   // deg/sqrt(s)
+  const double k_true = 1e-3;   // deg/s/sqrt(s)
+  for (unsigned seed : {11u, 12u, 13u}) {
+    const auto y = synthetic(2000000, 100.0, n_true, k_true, seed);
+    const AllanResult r = allan_deviation(y, 100.0);
+    REQUIRE(r.arw.valid);
+    REQUIRE(r.rrw.valid);
+    INFO("seed " << seed << ": N = " << r.arw.value_at_ref << ", K = " << r.rrw.value_at_ref);
+    CHECK(std::fabs(r.arw.value_at_ref - n_true) <= 0.10 * n_true);
+    CHECK(std::fabs(r.rrw.value_at_ref - k_true) <= 0.10 * k_true);
+    // The curve's minimum lies near where the two lines cross, sqrt(3) N / K = 17 s.
+    CHECK(r.bias_instability.ref_tau_s > 5.0);
+    CHECK(r.bias_instability.ref_tau_s < 60.0);
+  }
+}
+
+TEST_CASE("the confidence interval brackets the estimate and narrows with more clusters") {
+  const auto y = synthetic(10000, 10.0, 0.01, 0.0, 5);
+  const AllanResult r = allan_deviation(y, 10.0);
+  for (std::size_t i = 0; i < r.points.size(); ++i) {
+    const auto& p = r.points[i];
+    CHECK(p.ci_low <= p.adev);
+    CHECK(p.ci_high >= p.adev);
+    CHECK((p.ci_high - p.adev) / p.adev == Approx(1.0 / std::sqrt(2.0 * (p.clusters - 1.0))));
+    if (i > 0) CHECK((p.ci_high - p.adev) / p.adev > (r.points[i - 1].ci_high - r.points[i - 1].adev) / r.points[i - 1].adev);
+  }
+}
+
+TEST_CASE("bad records are rejected") {
+  const std::vector<double> one{1.0};
+  CHECK_THROWS_AS(allan_deviation(one, 10.0), std::invalid_argument);
+  const std::vector<double> with_nan{1.0, std::nan(""), 2.0};
+  CHECK_THROWS_AS(allan_deviation(with_nan, 10.0), std::invalid_argument);
+  const std::vector<double> two{1.0, 2.0};
+  CHECK_THROWS_AS(allan_deviation(two, 0.0), std::invalid_argument);
+  CHECK(allan_deviation(two, 1.0).points.size() == 1);
+}
+
+TEST_CASE("a 10^7-sample record is handled") {
+  const auto y = synthetic(10000000, 1000.0, 0.005, 0.0, 21);
+  const auto start = std::chrono::steady_clock::now();
+  const AllanResult r = allan_deviation(y, 1000.0);
+  const double wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  WARN("allan_deviation on 1e7 samples: " << r.points.size() << " cluster times in " << wall_s << " s");
+  REQUIRE(r.points.size() > 60);
+  CHECK(r.arw.value_at_ref == Approx(0.005).epsilon(0.05));
+}
