@@ -31,4 +31,20 @@ struct TemperatureReading {
   TempFault fault = TempFault::none;
 };
 
+// A temperature sensor (DS18B20). read() blocks for a conversion (up to
+// 750 ms on real hardware), so it is never called on the real-time thread.
+// A failed read is a reading with valid = false and a typed fault.
+class TemperatureSensor {
+ public:
+  virtual ~TemperatureSensor() = default;
+
+  TemperatureReading read() { return do_read(); }
+  // Device id or path, for messages.
+  std::string_view name() const noexcept { return do_name(); }
+
+ private:
+  virtual TemperatureReading do_read() = 0;
+  virtual std::string_view do_name() const noexcept = 0;
+};
+
 }  // namespace gyrotc::hal

@@ -1,0 +1,94 @@
+#include "gyrotc/hal/sim/sim_board.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+namespace gyrotc::hal {
+
+namespace {
+constexpr const char* kCasingId = "28-00000000ca51";   // simulated w1 ids
+constexpr const char* kAmbientId = "28-00000000a4b1";
+}  // namespace
+
+SimBoard::SimBoard(const model::PlantParams& params, std::uint64_t seed, const SimBoardOptions& options)
+    : options_(options),
+      plant_(params, seed),
+      ambient_c_(plant_.ambient_c()),
+      next_step_s_(options.thermal_step_s),
+      clock_(options.realtime ? static_cast<Clock&>(realtime_clock_) : static_cast<Clock&>(virtual_clock_)),
+      adc_chip_(*this, clock_, {.fclk_hz = options.adc.fclk_hz, .vref_v = options.adc.vref_v}),
+      rate_dac_chip_("sim:ad5060-rate", options.rate_dac.vref_v),
+      tec_dac_chip_("sim:ad5060-tec", params.dac_vref_v, this),
+      opa548_chip_(this),
+      casing_chip_(kCasingId, plant_.sensor_c(), options.realtime ? &sensor_sleep_clock_ : nullptr),
+      ambient_chip_(kAmbientId, plant_.ambient_c(), options.realtime ? &sensor_sleep_clock_ : nullptr),
+      adc_(adc_chip_.spi(), adc_chip_.drdy(), options.adc),
+      rate_dac_(rate_dac_chip_, options.rate_dac),
+      tec_dac_(tec_dac_chip_, {.vref_v = params.dac_vref_v}),
+      opa548_(opa548_chip_.es_drive(), &opa548_chip_.es_sense()),
+      tec_(tec_dac_, opa548_, {.gain_a_per_v = params.gain_a_per_v, .current_limit_a = options.tec_current_limit_a}),
+      casing_(casing_chip_, clock_, options.sensor),
+      ambient_(ambient_chip_, clock_, options.sensor) {
+  virtual_clock_.set_listener(this);
+  realtime_clock_.set_listener(this);
+  // The same bring-up as the real board: TEC at 0 A and OPA548 off, rate
+  // output at mid-scale. The drivers were validated by the config parser;
+  // the simulators accept these bus settings.
+  (void)adc_.init();
+  (void)rate_dac_.init();
+  (void)tec_dac_.init();
+  (void)tec_.safe_off();
+  (void)rate_dac_.write_v(options.rate_dac.vref_v / 2.0);
+  publish();
+}
+
+SimBoard::~SimBoard() { (void)tec_.safe_off(); }
+
+Board SimBoard::board() noexcept {
+  return {adc_, casing_, options_.ambient_sensor ? &ambient_ : nullptr, rate_dac_, tec_, clock_};
+}
+
+void SimBoard::advance_to(double t_s) noexcept {
+  if (options_.realtime) {
+    clock_.sleep_until(t_s);  // the listener steps the plant
+  } else if (t_s > virtual_clock_.now_s()) {
+    virtual_clock_.sleep_until(t_s);
+  } else {
+    step_plant_to(t_s);
+  }
+}
+
+void SimBoard::on_time_advanced(double now_s) noexcept {
+  if (now_s >= next_step_s_) step_plant_to(now_s);
+}
+
+void SimBoard::step_plant_to(double t_s) noexcept {
+  const double span_s = t_s - plant_.time_s();
+  if (span_s > 0.0) {
+    plant_.set_ambient_c(ambient_c_.load(std::memory_order_relaxed));
+    plant_.set_rate_dps(rate_dps_.load(std::memory_order_relaxed));
+    apply_tec_enable();
+    plant_.advance(span_s);
+    publish();
+  }
+  next_step_s_ = t_s + options_.thermal_step_s;
+}
+
+void SimBoard::publish() noexcept {
+  casing_chip_.set_temperature_c(plant_.sensor_c());
+  ambient_chip_.set_temperature_c(plant_.ambient_c());
+  opa548_chip_.set_thermal_shutdown(plant_.opa548_thermal_shutdown());
+}
+
+// The plant models the die's own thermal shutdown; an injected one is ours.
+void SimBoard::apply_tec_enable() noexcept {
+  plant_.set_tec_enabled(opa548_chip_.drive_released() && !opa548_chip_.injected_shutdown());
+}
+
+double SimBoard::input_mv(double) noexcept { return plant_.gyro_mv(adc_chip_.sample_period_s()); }
+
+void SimBoard::on_dac_output(double output_v, Ad5060PowerDown) noexcept { plant_.set_tec_drive_v(output_v); }
+
+void SimBoard::on_opa548_drive(bool) noexcept { apply_tec_enable(); }
+
+}  // namespace gyrotc::hal

@@ -1,0 +1,94 @@
+#include "gyrotc/hal/chips/tec_stage.hpp"
+
+#include <string>
+#include <vector>
+
+#include "gyrotc/hal/sim/sim_ad5060.hpp"
+#include "gyrotc/hal/sim/sim_opa548.hpp"
+#include "gyrotc_catch.hpp"
+
+using namespace gyrotc::hal;
+
+namespace {
+
+// Records the order in which the TEC DAC and the OPA548 drive pin change.
+struct Recorder final : SimAd5060::Listener, SimOpa548::Listener {
+  std::vector<std::string> events;
+  void on_dac_output(double v, Ad5060PowerDown) noexcept override { events.push_back("dac " + std::to_string(v)); }
+  void on_opa548_drive(bool released) noexcept override { events.push_back(released ? "enable" : "disable"); }
+};
+
+struct Rig {
+  Recorder recorder;
+  SimAd5060 dac_chip{"sim:ad5060-tec", 2.5, &recorder};
+  SimOpa548 amp_chip{&recorder};
+  Ad5060 dac{dac_chip, {.vref_v = 2.5}};
+  Opa548 amp{amp_chip.es_drive(), &amp_chip.es_sense()};
+  TecStage tec{dac, amp, {.gain_a_per_v = 1.0, .current_limit_a = 1.2}};
+  Rig() { REQUIRE(dac.init().ok()); }
+};
+
+}  // namespace
+
+TEST_CASE("the OPA548 is disabled until enabled") {
+  Rig rig;
+  CHECK_FALSE(rig.amp_chip.output_enabled());
+  CHECK_FALSE(rig.amp.enabled());
+  REQUIRE(rig.tec.enable(true).ok());
+  CHECK(rig.amp_chip.output_enabled());
+}
+
+TEST_CASE("0 A is DAC mid-scale and the current maps through the stage gain") {
+  Rig rig;
+  REQUIRE(rig.tec.set_current_a(0.0).ok());
+  CHECK(rig.dac_chip.code() == 32768);
+  REQUIRE(rig.tec.set_current_a(0.5).ok());
+  CHECK(rig.dac_chip.output_v() == Approx(1.75).margin(1e-4));
+  REQUIRE(rig.tec.set_current_a(-0.5).ok());
+  CHECK(rig.dac_chip.output_v() == Approx(0.75).margin(1e-4));
+}
+
+TEST_CASE("current commands beyond the limit are clamped to it") {
+  Rig rig;
+  REQUIRE(rig.tec.set_current_a(5.0).ok());
+  CHECK(rig.tec.last_current_a() == 1.2);
+  CHECK(rig.dac_chip.output_v() == Approx(2.45).margin(1e-4));
+  REQUIRE(rig.tec.set_current_a(-5.0).ok());
+  CHECK(rig.tec.last_current_a() == -1.2);
+}
+
+TEST_CASE("safe_off sets the DAC to 0 A first, then disables the OPA548") {
+  Rig rig;
+  REQUIRE(rig.tec.set_current_a(1.0).ok());
+  REQUIRE(rig.tec.enable(true).ok());
+  rig.recorder.events.clear();
+  REQUIRE(rig.tec.safe_off().ok());
+  REQUIRE(rig.recorder.events.size() == 2);
+  CHECK(rig.recorder.events[0] == "dac " + std::to_string(1.25));
+  CHECK(rig.recorder.events[1] == "disable");
+  CHECK_FALSE(rig.amp_chip.output_enabled());
+}
+
+TEST_CASE("a thermal shutdown shows as the thermal flag while enabled") {
+  Rig rig;
+  REQUIRE(rig.tec.enable(true).ok());
+  auto flag = rig.tec.thermal_flag();
+  REQUIRE(flag.ok());
+  CHECK_FALSE(*flag);
+  rig.amp_chip.inject_thermal_shutdown(true);
+  flag = rig.tec.thermal_flag();
+  REQUIRE(flag.ok());
+  CHECK(*flag);
+  CHECK_FALSE(rig.amp_chip.output_enabled());
+  rig.amp_chip.inject_thermal_shutdown(false);
+  CHECK_FALSE(*rig.tec.thermal_flag());
+}
+
+TEST_CASE("without a sense line the thermal flag is read back from the drive line") {
+  SimOpa548 chip;
+  Opa548 amp{chip.es_drive(), nullptr};
+  REQUIRE(amp.enable(true).ok());
+  CHECK_FALSE(*amp.thermal_flag());
+  chip.inject_thermal_shutdown(true);
+  CHECK(*amp.thermal_flag());
+}
