@@ -15,6 +15,14 @@ int main(int argc, char** argv) {
   cli.set_version_flag("-V,--version", std::string("gyrotc ") + gyrotc::app::kVersion);
   cli.require_subcommand(1);
   cli.footer("Run 'gyrotc <command> --help' for the options of a command.");
+  gyrotc::app::add_identify_command(cli);
+  gyrotc::app::add_probe_command(cli);
+  gyrotc::app::add_fit_command(cli);
+  gyrotc::app::add_simulate_command(cli);
+  gyrotc::app::add_allan_command(cli);
+  gyrotc::app::add_run_command(cli);
+  gyrotc::app::add_record_command(cli);
+  gyrotc::app::add_safe_off_command(cli);
 
   try {
     cli.parse(argc, argv);

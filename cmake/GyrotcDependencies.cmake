@@ -56,12 +56,11 @@ endif()
 
 find_package(Threads REQUIRED)
 
-# Optional: sd_notify(READY=1, WATCHDOG=1) for Type=notify services.
-pkg_check_modules(LIBSYSTEMD QUIET IMPORTED_TARGET libsystemd)
-option(GYROTC_WITH_SYSTEMD "Use libsystemd for sd_notify (when found)" ${LIBSYSTEMD_FOUND})
-if(GYROTC_WITH_SYSTEMD AND NOT LIBSYSTEMD_FOUND)
-  gyrotc_missing("libsystemd (GYROTC_WITH_SYSTEMD=ON)" "libsystemd-dev${_gyrotc_pkg_arch}")
-endif()
+# READY=1 / WATCHDOG=1 for the Type=notify unit. gyrotc speaks the sd_notify
+# datagram protocol itself (app/src/daemon/systemd_notify.cpp): no libsystemd,
+# so cross builds (whose libsystemd-dev:arm64 does not co-install on bookworm)
+# get it too.
+option(GYROTC_SYSTEMD_NOTIFY "Send sd_notify messages (READY, WATCHDOG, STOPPING) to \$NOTIFY_SOCKET" ON)
 
 if(GYROTC_BUILD_TESTS)
   # Catch2 v2 is what Debian bookworm ships; v3 is accepted where found.

@@ -7,4 +7,13 @@
 // throws InputError / RuntimeFailure for main() to report.
 namespace gyrotc::app {
 
+void add_identify_command(CLI::App& app);
+void add_probe_command(CLI::App& app);
+void add_fit_command(CLI::App& app);
+void add_simulate_command(CLI::App& app);
+void add_allan_command(CLI::App& app);
+void add_run_command(CLI::App& app);
+void add_record_command(CLI::App& app);
+void add_safe_off_command(CLI::App& app);
+
 }  // namespace gyrotc::app

@@ -1,0 +1,71 @@
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <optional>
+#include <string>
+
+#include <toml++/toml.h>
+
+#include "gyrotc/hal/board.hpp"
+#include "gyrotc/hal/linux/linux_board.hpp"
+#include "gyrotc/hal/sim/sim_board.hpp"
+
+// The board part of the daemon's configuration file:
+//
+//   hal = "linux" | "sim"        which board make_board() builds
+//   [devices.adc]                ADS1251: spi, drdy, fclk_hz, vref_v, spi_speed_hz, latency_budget_s
+//   [devices.rate_dac]           AD5060 #1: spi, vref_v, spi_speed_hz
+//   [devices.tec_dac]            AD5060 #2: spi, spi_speed_hz
+//   [devices.opa548]             es, es_sense (optional)
+//   [devices.casing_sensor]      DS18B20: w1_root, id, source, stuck_after_s
+//   [devices.ambient_sensor]     optional second DS18B20, same keys
+//   [tec]                        dac_vref_v, gain_a_per_v, current_limit_a
+//   [sim]                        seed, thermal_step_s, initial_temp_c
+//
+// deploy/config/gyrotc-{sim,linux}.toml document every key. Other top-level
+// keys and tables belong to the daemon's loader and are left alone here;
+// unknown keys inside these sections are errors.
+namespace gyrotc::app {
+
+enum class HalKind { linux_devices, sim };
+
+struct SimConfig {
+  std::uint64_t seed = 1;
+  double thermal_step_s = 0.1;
+  // Every node of the plant (and the chamber) at power-on; unset: the
+  // plant's default (PlantParams::initial_temp_c).
+  std::optional<double> initial_temp_c;
+};
+
+struct BoardConfig {
+  HalKind hal = HalKind::sim;
+  // Device paths are used by hal = "linux"; the chip settings (ADC clock and
+  // reference, DAC references, sensor options, TEC stage) by both.
+  hal::LinuxBoardConfig devices;
+  SimConfig sim;
+};
+
+// Reads hal, [devices], [tec] and [sim] from a parsed file. Throws
+// InputError "<source>:<line>: <key>: <why>" on a bad or unknown key.
+BoardConfig parse_board_config(const toml::table& root, const std::string& source);
+
+// A built board: exactly one of the two is set.
+struct BoardInstance {
+  std::unique_ptr<hal::LinuxBoard> linux_board;
+  std::unique_ptr<hal::SimBoard> sim_board;
+  hal::Board board();
+};
+
+enum class SimTiming { lockstep, realtime };
+
+// The PlantParams a hal = "sim" board is built from: the plant's defaults
+// with the TEC stage of [tec].
+model::PlantParams sim_plant_params(const BoardConfig& config);
+hal::SimBoardOptions sim_board_options(const BoardConfig& config, SimTiming timing);
+
+// Builds the configured board. hal = "linux": opens every device, and if any
+// fails throws RuntimeFailure naming each failed device.
+BoardInstance make_board(const BoardConfig& config, SimTiming timing = SimTiming::lockstep);
+
+}  // namespace gyrotc::app

@@ -1,0 +1,51 @@
+#pragma once
+
+#include <cstddef>
+#include <string>
+#include <string_view>
+
+#include "gyrotc/algorithms/fit/bias_model.hpp"
+
+namespace gyrotc::app {
+
+// Where a calibration came from: written to the file's [source] table for
+// people to read; the loader does not need it.
+struct CalibrationSource {
+  std::string data;       // input file
+  std::string method;     // poly | piecewise | bpnn | paper | auto
+  std::string structure;  // e.g. "orders 5/5/4, breakpoints -7.5, 52.5 C"
+  std::size_t points = 0;
+  double in_sample_max_abs_dps = 0.0;
+  double in_sample_rms_dps = 0.0;
+  double loo_max_abs_dps = 0.0;
+  double loo_rms_dps = 0.0;
+};
+
+struct Calibration {
+  fit::BiasModel model;
+  double scale_mv_per_dps;  // key scale_mv_per_dps; 8.774 (seed Table 2) when absent
+};
+
+// Calibration file (TOML), version 1:
+//   format = "gyrotc-calibration", version = 1
+//   kind = "polynomial" | "piecewise" | "bp_network" | "paper_reference"
+//   range_c = [t_min, t_max]          (not for paper_reference)
+//   scale_mv_per_dps = 8.774          (optional)
+//   [polynomial] center_c, scale_c, coefficients_mv = [a0, a1, ...]
+//   [piecewise] breakpoints_c = [...]; [[piecewise.segment]] center_c, scale_c, coefficients_mv
+//   [bp_network] out_center_mv, out_half_range_mv; [[bp_network.layer]] inputs, outputs,
+//       activation ("tansig" for hidden layers, "linear" for the last), weights (row-major), biases
+//   [source] (optional, free-form information)
+// Every error is an InputError naming the file, the line where known, and the key.
+Calibration read_calibration(const std::string& path);
+Calibration parse_calibration(std::string_view text, const std::string& name);
+fit::BiasModel load_calibration(const std::string& path);
+
+// The file's text; numbers are written so that they read back bit-for-bit.
+std::string format_calibration(const fit::BiasModel& model, double scale_mv_per_dps,
+                               const CalibrationSource& source = {});
+// Writes format_calibration() to path; RuntimeFailure when the file cannot be written.
+void save_calibration(const fit::BiasModel& model, const std::string& path,
+                      double scale_mv_per_dps = 8.774, const CalibrationSource& source = {});
+
+}  // namespace gyrotc::app

@@ -1,0 +1,169 @@
+#pragma once
+
+#include <atomic>
+#include <cstdint>
+
+#include "gyrotc/algorithms/control/pid.hpp"
+#include "gyrotc/algorithms/fit/compensator.hpp"
+#include "gyrotc/hal/devices.hpp"
+#include "gyrotc/hal/temperature_sensor.hpp"
+
+// The controller both runners share (ARCHITECTURE.md, "One controller, two
+// runners"): per-sample compensation, the 2 s PID on the TEC, and the
+// fail-safe decisions of issue 6. It knows no threads, clocks or devices: the
+// runner hands it samples, readings and ticks with their times and applies
+// what it returns. Every on_* call is noexcept, allocation-free and lock-free.
+namespace gyrotc::app {
+
+// Flags reported with every sample and TEC command (bitmask).
+enum ControllerFlag : std::uint32_t {
+  kFlagTempStale = 1u << 0,       // no valid casing reading for > stale_periods PID periods
+  kFlagTempInvalid = 1u << 1,     // the last casing reading was invalid (CRC, 85 C reset, range)
+  kFlagTempStuck = 1u << 2,       // the casing reading has not changed while the TEC drives
+  kFlagOverTempLatched = 1u << 3, // casing over-temperature: TEC off until restart
+  kFlagOpa548Thermal = 1u << 4,   // the OPA548 reports thermal shutdown
+  kFlagAdcInvalid = 1u << 5,      // ADC timeout or clipped sample: the rate output is invalid
+  kFlagModelClamped = 1u << 6,    // compensation temperature outside the calibrated range
+  kFlagTecSaturated = 1u << 7,    // the PID output is at its limit
+  kFlagTecOff = 1u << 8,          // the TEC is commanded off (0 A, OPA548 disabled)
+};
+
+// Fail-safe limits (issue 6). Defaults are documented choices.
+struct FailSafeLimits {
+  // A casing reading older than this many PID periods is stale (issue 6: 3).
+  double stale_periods = 3.0;
+  // Stuck: the reading has not changed for stuck_s while the TEC drove with
+  // |I| >= stuck_min_drive_a all along, or while the command swung over at
+  // least stuck_span_a. A healthy sensor moves by one 0.0625 C step within
+  // minutes at such drive; holding 55 C at -30 C ambient needs ~0.45 A, so a
+  // steady hold does not trip it.
+  double stuck_s = 300.0;
+  double stuck_min_drive_a = 0.5;
+  double stuck_span_a = 0.3;
+  // Consecutive good readings that clear a stale/invalid/stuck fault.
+  int recovery_readings = 3;
+  // Casing over-temperature: latched off (the DS18B20 itself goes to 125 C).
+  double over_temp_c = 80.0;
+  // After an OPA548 thermal flag the TEC stays off this long before it is
+  // retried: with E/S released the flag can only be seen while enabled, so a
+  // disabled part reads "no fault" whether or not its junction has cooled.
+  double opa548_cooldown_s = 60.0;
+  // Plausible casing range; outside it a reading is invalid (DS18B20: -55..125 C).
+  double min_valid_c = -55.0;
+  double max_valid_c = 125.0;
+};
+
+struct ControllerConfig {
+  double setpoint_c = 55.0;  // seed Section 6: optimal working temperature ~55 C
+  control::PidParams pid;    // seed Eq. 17/18 defaults; out_min/out_max = TEC current limits
+  bool pid_enabled = true;   // false: the TEC stays off (compensation only)
+  FailSafeLimits limits;
+  // Tuned options (all off = the seed's controller).
+  // Feed-forward from the ambient sensor: I_ff = ff_a_per_c * (setpoint - ambient).
+  double feed_forward_a_per_c = 0.0;
+  // Setpoint ramp from the first casing reading (C/s); 0 = a step.
+  double setpoint_ramp_c_per_s = 0.0;
+  // Rate output (AD5060 #1): mid-scale = 0 deg/s.
+  double rate_dac_vref_v = 5.0;
+  double rate_out_v_per_dps = 0.01;  // +/-250 deg/s over 0..5 V
+};
+
+// Throws std::invalid_argument naming the field.
+void validate(const ControllerConfig& config);
+
+struct SampleResult {
+  double rate_dps = 0.0;    // compensated rate (NaN when not valid)
+  double bias_mv = 0.0;     // modelled zero-rate output subtracted
+  double rate_out_v = 0.0;  // for the rate DAC (mid-scale when not valid)
+  bool valid = false;
+  std::uint32_t flags = 0;
+};
+
+struct TecCommand {
+  double current_a = 0.0;
+  bool enable = false;
+  std::uint32_t flags = 0;
+};
+
+class Controller {
+ public:
+  // The Compensator is not owned: it must outlive its use (see set_compensator).
+  Controller(const ControllerConfig& config, const fit::Compensator& compensator);
+
+  // Every ADC sample: compensation at the last valid casing temperature.
+  SampleResult on_sample(const hal::AdcSample& sample, double now_s) noexcept;
+  // The ADC did not deliver in time: the rate output is invalid until the
+  // next good sample.
+  void on_adc_timeout(double now_s) noexcept;
+  // A casing reading (DS18B20 in the casing) / an optional ambient reading.
+  void on_temperature(const hal::TemperatureReading& reading, double now_s) noexcept;
+  void on_ambient_temperature(const hal::TemperatureReading& reading, double now_s) noexcept;
+  // The OPA548 E/S thermal flag as last read (reads false while disabled):
+  // a true flag turns the TEC off for at least opa548_cooldown_s.
+  void on_opa548_thermal(bool in_shutdown, double now_s) noexcept;
+  // Every PID period: fail-safe decisions, then the PID.
+  TecCommand on_pid_tick(double now_s) noexcept;
+
+  // Calibration reload: the next on_sample uses the new compensator. The
+  // caller keeps the old one alive until the sample in flight (if any) has
+  // returned. Safe to call from another thread than on_sample's.
+  void set_compensator(const fit::Compensator& compensator) noexcept {
+    compensator_.store(&compensator, std::memory_order_release);
+  }
+
+  std::uint32_t flags() const noexcept { return flags_; }
+  // The setpoint in use (ramping with setpoint_ramp_c_per_s).
+  double active_setpoint_c() const noexcept { return active_setpoint_c_; }
+  double last_casing_c() const noexcept { return casing_c_; }
+  const TecCommand& last_command() const noexcept { return command_; }
+  const ControllerConfig& config() const noexcept { return config_; }
+
+ private:
+  static constexpr std::uint32_t kTempFaults = kFlagTempStale | kFlagTempInvalid | kFlagTempStuck;
+
+  void set_flag(std::uint32_t flag, bool on) noexcept;
+  void record_command(double current_a) noexcept;
+  TecCommand off(double now_s) noexcept;
+
+  ControllerConfig config_;
+  std::atomic<const fit::Compensator*> compensator_;
+  control::IncrementalPid pid_;
+  std::uint32_t flags_ = kFlagTecOff;
+
+  // Casing reading state.
+  bool have_casing_ = false;
+  double casing_c_ = 0.0;
+  double casing_time_s_ = 0.0;   // time of the last valid reading
+  double changed_at_s_ = 0.0;    // when the value last changed
+  int good_streak_ = 0;
+  double stuck_value_c_ = 0.0;   // the value that tripped the stuck fault
+  // TEC drive since the reading last changed (for the stuck check).
+  double drive_min_abs_a_ = 0.0;
+  double drive_lo_a_ = 0.0;
+  double drive_hi_a_ = 0.0;
+
+  // Compensation cache: the bias at the current reading and model.
+  const fit::Compensator* cached_compensator_ = nullptr;
+  bool bias_cached_ = false;
+  double cached_bias_mv_ = 0.0;
+  bool cached_clamped_ = false;
+  double inverse_scale_ = 1.0;
+
+  bool have_ambient_ = false;
+  double ambient_c_ = 0.0;
+
+  double opa548_off_until_s_ = 0.0;
+
+  bool pid_running_ = false;
+  double active_setpoint_c_;
+  double last_tick_s_ = 0.0;
+  TecCommand command_;
+};
+
+// One PID tick as both runners do it: the OPA548 thermal flag in (a flag that
+// cannot be read counts as a shutdown: the safe side), the controller's
+// command out to the TEC stage. A current the DAC did not take leaves the TEC
+// off rather than enabled at an unknown current.
+TecCommand run_pid_tick(Controller& controller, hal::TecDriver& tec, double now_s) noexcept;
+
+}  // namespace gyrotc::app

@@ -1,0 +1,37 @@
+#pragma once
+
+#include <optional>
+#include <string>
+
+#include "gyrotc/app/daemon/config.hpp"
+
+// What `gyrotc run`, `gyrotc record` and `gyrotc safe-off` do, behind their
+// command lines.
+namespace gyrotc::app {
+
+struct SessionOptions {
+  std::string config_path;
+  double duration_s = 0.0;        // 0: until SIGINT / SIGTERM
+  bool allow_non_rt = false;      // run without SCHED_FIFO / mlockall, warning
+  std::string summary_json;       // "" = none
+  std::optional<bool> pid;        // overrides [control] pid
+  std::string record_csv;         // overrides [output] record_csv
+  bool stream = true;             // false: no line stream ([output] stream ignored)
+};
+
+// Runs the real-time runner on the configured board until the duration ends
+// or SIGINT/SIGTERM (SIGHUP reloads the calibration file), then puts the
+// board in the safe state, prints the summary and returns (exit 0). Throws
+// InputError / RuntimeFailure, the board safe-off done.
+void run_session(const SessionOptions& options);
+
+// The TEC DAC to 0 A and the OPA548 disabled on the configured board.
+// Throws RuntimeFailure when the devices cannot be opened or written.
+void safe_off_board(const DaemonConfig& config);
+
+// The CSV columns of OutputRows (also the header line): what `gyrotc fit`
+// reads from a recording (time_s, sensor_c, gyro_mv) plus the rest.
+inline constexpr const char* kRecordCsvHeader =
+    "time_s,sensor_c,ambient_c,gyro_mv,rate_dps_compensated,tec_a,setpoint_c,flags";
+
+}  // namespace gyrotc::app

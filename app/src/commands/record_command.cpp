@@ -1,0 +1,38 @@
+// `gyrotc record`: the raw data a calibration needs, from the running board.
+#include <memory>
+#include <string>
+
+#include "gyrotc/app/commands.hpp"
+#include "gyrotc/app/daemon/session.hpp"
+
+namespace gyrotc::app {
+
+void add_record_command(CLI::App& app) {
+  auto options = std::make_shared<SessionOptions>();
+  auto pid = std::make_shared<std::string>("on");
+  options->config_path = "/etc/gyrotc/gyrotc.toml";
+  options->stream = false;
+  CLI::App* cmd = app.add_subcommand(
+      "record",
+      "Run the board (as `gyrotc run`) and record what a calibration needs: one CSV row per [output]\n"
+      "period_s with time_s, sensor_c (casing DS18B20), ambient_c, gyro_mv (raw, mean), the compensated\n"
+      "rate, tec_a and the flags. `gyrotc fit --data FILE.csv` reads it (time_s, sensor_c, gyro_mv).\n"
+      "With --pid off the TEC stays off and the chamber sweeps the temperature.");
+  cmd->add_option("-c,--config", options->config_path, "configuration file (TOML), as for `gyrotc run`")
+      ->capture_default_str();
+  cmd->add_option("--out", options->record_csv, "CSV file to write")->required();
+  cmd->add_option("--duration", options->duration_s, "stop after this many seconds (default: until a signal)")
+      ->check(CLI::PositiveNumber);
+  cmd->add_option("--pid", *pid, "on: hold the setpoint; off: TEC off (a free temperature sweep)")
+      ->check(CLI::IsMember({"on", "off"}))
+      ->capture_default_str();
+  cmd->add_flag("--allow-non-rt", options->allow_non_rt,
+                "run without SCHED_FIFO / locked memory when not permitted (a warning)");
+  cmd->add_option("--summary-json", options->summary_json, "write the run's summary here");
+  cmd->callback([options, pid] {
+    options->pid = *pid == "on";
+    run_session(*options);
+  });
+}
+
+}  // namespace gyrotc::app

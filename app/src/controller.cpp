@@ -1,0 +1,213 @@
+#include "gyrotc/app/controller.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <stdexcept>
+#include <string>
+
+namespace gyrotc::app {
+namespace {
+
+void require(bool ok, const char* field, const char* what) {
+  if (!ok) throw std::invalid_argument(std::string("controller ") + field + " " + what);
+}
+
+}  // namespace
+
+void validate(const ControllerConfig& c) {
+  control::validate(c.pid);
+  const auto& l = c.limits;
+  require(std::isfinite(c.setpoint_c), "setpoint_c", "must be a number");
+  require(c.setpoint_c > l.min_valid_c && c.setpoint_c < l.over_temp_c, "setpoint_c",
+          "must lie between min_valid_c and over_temp_c");
+  require(std::isfinite(c.feed_forward_a_per_c), "feed_forward_a_per_c", "must be a number");
+  require(std::isfinite(c.setpoint_ramp_c_per_s) && c.setpoint_ramp_c_per_s >= 0.0,
+          "setpoint_ramp_c_per_s", "must be zero or positive");
+  require(std::isfinite(c.rate_dac_vref_v) && c.rate_dac_vref_v > 0.0, "rate_dac_vref_v",
+          "must be positive");
+  require(std::isfinite(c.rate_out_v_per_dps) && c.rate_out_v_per_dps > 0.0, "rate_out_v_per_dps",
+          "must be positive");
+  require(std::isfinite(l.stale_periods) && l.stale_periods > 0.0, "stale_periods",
+          "must be positive");
+  require(std::isfinite(l.stuck_s) && l.stuck_s > 0.0, "stuck_s", "must be positive");
+  require(std::isfinite(l.stuck_min_drive_a) && l.stuck_min_drive_a > 0.0, "stuck_min_drive_a",
+          "must be positive");
+  require(std::isfinite(l.stuck_span_a) && l.stuck_span_a > 0.0, "stuck_span_a",
+          "must be positive");
+  require(std::isfinite(l.opa548_cooldown_s) && l.opa548_cooldown_s >= 0.0, "opa548_cooldown_s",
+          "must be zero or positive");
+  require(l.recovery_readings >= 1, "recovery_readings", "must be at least 1");
+  require(std::isfinite(l.min_valid_c) && std::isfinite(l.max_valid_c) &&
+              l.min_valid_c < l.max_valid_c,
+          "min_valid_c", "must be below max_valid_c");
+  require(std::isfinite(l.over_temp_c), "over_temp_c", "must be a number");
+}
+
+Controller::Controller(const ControllerConfig& config, const fit::Compensator& compensator)
+    : config_(config),
+      compensator_(&compensator),
+      pid_((validate(config), config.pid)),
+      active_setpoint_c_(config.setpoint_c) {}
+
+void Controller::set_flag(std::uint32_t flag, bool on) noexcept {
+  flags_ = on ? (flags_ | flag) : (flags_ & ~flag);
+}
+
+SampleResult Controller::on_sample(const hal::AdcSample& sample, double /*now_s*/) noexcept {
+  const fit::Compensator* compensator = compensator_.load(std::memory_order_acquire);
+  // The modelled bias only changes with the casing reading (about once a
+  // second) or the model: evaluate it then, and subtract it from every sample.
+  if (compensator != cached_compensator_ || !bias_cached_) {
+    const double temp_c = have_casing_ ? casing_c_ : std::numeric_limits<double>::quiet_NaN();
+    const fit::Compensated c = compensator->compensate(0.0, temp_c);
+    cached_compensator_ = compensator;
+    cached_bias_mv_ = c.bias_mv;
+    cached_clamped_ = c.temp_clamped;
+    inverse_scale_ = 1.0 / compensator->scale_mv_per_dps();
+    bias_cached_ = true;
+  }
+  SampleResult result;
+  set_flag(kFlagModelClamped, cached_clamped_);
+  const double rate_dps = (sample.gyro_mv - cached_bias_mv_) * inverse_scale_;
+  result.valid = !sample.clipped && std::isfinite(rate_dps);
+  set_flag(kFlagAdcInvalid, sample.clipped);
+  result.bias_mv = cached_bias_mv_;
+  const double mid_v = 0.5 * config_.rate_dac_vref_v;
+  if (result.valid) {
+    result.rate_dps = rate_dps;
+    result.rate_out_v = std::clamp(mid_v + rate_dps * config_.rate_out_v_per_dps, 0.0,
+                                   config_.rate_dac_vref_v);
+  } else {
+    result.rate_dps = std::numeric_limits<double>::quiet_NaN();
+    result.rate_out_v = mid_v;
+  }
+  result.flags = flags_;
+  return result;
+}
+
+void Controller::on_adc_timeout(double /*now_s*/) noexcept { set_flag(kFlagAdcInvalid, true); }
+
+void Controller::on_temperature(const hal::TemperatureReading& reading, double now_s) noexcept {
+  const auto& l = config_.limits;
+  const bool plausible = reading.valid && std::isfinite(reading.temp_c) &&
+                         reading.temp_c >= l.min_valid_c && reading.temp_c <= l.max_valid_c;
+  if (!plausible) {
+    set_flag(kFlagTempInvalid, true);
+    good_streak_ = 0;
+    return;
+  }
+  if (reading.temp_c >= l.over_temp_c) set_flag(kFlagOverTempLatched, true);
+  if (!have_casing_ || reading.temp_c != casing_c_) {
+    changed_at_s_ = now_s;
+    drive_min_abs_a_ = std::numeric_limits<double>::infinity();
+    drive_lo_a_ = std::numeric_limits<double>::infinity();
+    drive_hi_a_ = -std::numeric_limits<double>::infinity();
+  }
+  if (!have_casing_ || reading.temp_c != casing_c_) bias_cached_ = false;
+  have_casing_ = true;
+  casing_c_ = reading.temp_c;
+  casing_time_s_ = now_s;
+  if ((flags_ & kTempFaults) != 0) {
+    const bool still_stuck = (flags_ & kFlagTempStuck) != 0 && reading.temp_c == stuck_value_c_;
+    good_streak_ = still_stuck ? 0 : good_streak_ + 1;
+    if (good_streak_ >= l.recovery_readings) {
+      set_flag(kTempFaults, false);
+      good_streak_ = 0;
+    }
+  }
+}
+
+void Controller::on_ambient_temperature(const hal::TemperatureReading& reading,
+                                        double /*now_s*/) noexcept {
+  const auto& l = config_.limits;
+  if (reading.valid && std::isfinite(reading.temp_c) && reading.temp_c >= l.min_valid_c &&
+      reading.temp_c <= l.max_valid_c) {
+    have_ambient_ = true;
+    ambient_c_ = reading.temp_c;
+  }
+}
+
+void Controller::on_opa548_thermal(bool in_shutdown, double now_s) noexcept {
+  if (in_shutdown) {
+    set_flag(kFlagOpa548Thermal, true);
+    opa548_off_until_s_ = now_s + config_.limits.opa548_cooldown_s;
+  } else if (now_s >= opa548_off_until_s_) {
+    set_flag(kFlagOpa548Thermal, false);
+  }
+}
+
+void Controller::record_command(double current_a) noexcept {
+  drive_min_abs_a_ = std::min(drive_min_abs_a_, std::fabs(current_a));
+  drive_lo_a_ = std::min(drive_lo_a_, current_a);
+  drive_hi_a_ = std::max(drive_hi_a_, current_a);
+}
+
+TecCommand Controller::off(double now_s) noexcept {
+  set_flag(kFlagTecOff, true);
+  set_flag(kFlagTecSaturated, false);
+  pid_running_ = false;
+  pid_.reset(0.0);
+  record_command(0.0);
+  command_ = TecCommand{0.0, false, flags_};
+  last_tick_s_ = now_s;
+  return command_;
+}
+
+TecCommand Controller::on_pid_tick(double now_s) noexcept {
+  const auto& l = config_.limits;
+  const double period_s = config_.pid.period_s;
+
+  const bool stale = !have_casing_ || now_s - casing_time_s_ > l.stale_periods * period_s;
+  if (stale && (flags_ & kFlagTempStale) == 0) {
+    set_flag(kFlagTempStale, true);
+    good_streak_ = 0;
+  }
+  const bool driving = drive_min_abs_a_ >= l.stuck_min_drive_a || drive_hi_a_ - drive_lo_a_ >= l.stuck_span_a;
+  if (have_casing_ && (flags_ & kFlagTempStuck) == 0 && now_s - changed_at_s_ >= l.stuck_s &&
+      drive_hi_a_ >= drive_lo_a_ && driving) {
+    set_flag(kFlagTempStuck, true);
+    stuck_value_c_ = casing_c_;
+    good_streak_ = 0;
+  }
+
+  const std::uint32_t stop = kTempFaults | kFlagOverTempLatched | kFlagOpa548Thermal;
+  if ((flags_ & stop) != 0 || !config_.pid_enabled) return off(now_s);
+
+  const double dt_s = pid_running_ ? now_s - last_tick_s_ : 0.0;
+  if (!pid_running_) {
+    pid_.reset(0.0);
+    active_setpoint_c_ = config_.setpoint_ramp_c_per_s > 0.0 ? casing_c_ : config_.setpoint_c;
+    pid_running_ = true;
+  }
+  if (config_.setpoint_ramp_c_per_s > 0.0) {
+    const double step = config_.setpoint_ramp_c_per_s * dt_s;
+    active_setpoint_c_ += std::clamp(config_.setpoint_c - active_setpoint_c_, -step, step);
+  } else {
+    active_setpoint_c_ = config_.setpoint_c;
+  }
+  const double u = pid_.step(casing_c_, active_setpoint_c_);
+  const double ff =
+      have_ambient_ ? config_.feed_forward_a_per_c * (config_.setpoint_c - ambient_c_) : 0.0;
+  const double current_a = std::clamp(u + ff, config_.pid.out_min, config_.pid.out_max);
+  set_flag(kFlagTecOff, false);
+  set_flag(kFlagTecSaturated, pid_.saturated() || current_a != u + ff);
+  record_command(current_a);
+  command_ = TecCommand{current_a, true, flags_};
+  last_tick_s_ = now_s;
+  return command_;
+}
+
+TecCommand run_pid_tick(Controller& controller, hal::TecDriver& tec, double now_s) noexcept {
+  const auto thermal = tec.thermal_flag();
+  controller.on_opa548_thermal(!thermal.ok() || thermal.value(), now_s);
+  const TecCommand command = controller.on_pid_tick(now_s);
+  if (command.enable && tec.set_current_a(command.current_a)) {
+    (void)tec.enable(true);
+  } else {
+    (void)tec.safe_off();
+  }
+  return command;
+}
+
+}  // namespace gyrotc::app

@@ -1,0 +1,230 @@
+#include "gyrotc/app/daemon/config.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <initializer_list>
+#include <limits>
+#include <stdexcept>
+#include <string_view>
+
+#include "gyrotc/app/errors.hpp"
+
+namespace gyrotc::app {
+namespace {
+
+constexpr double kInf = std::numeric_limits<double>::infinity();
+
+std::string format_number(double v) {
+  char text[32];
+  std::snprintf(text, sizeof text, "%g", v);
+  return text;
+}
+
+// One daemon table: typed keys, and file, line and key in every error.
+class Table {
+ public:
+  Table(const toml::table* table, std::string name, const std::string& source,
+        std::initializer_list<std::string_view> allowed)
+      : table_(table), name_(std::move(name)), source_(source) {
+    if (table_ == nullptr) return;
+    for (auto&& [key, node] : *table_) {
+      if (std::find(allowed.begin(), allowed.end(), key.str()) == allowed.end()) {
+        fail(node, std::string(key.str()), "unknown key in [" + name_ + "]");
+      }
+    }
+  }
+
+  [[noreturn]] void fail(const toml::node& node, const std::string& key, const std::string& why) const {
+    throw InputError(source_ + ":" + std::to_string(node.source().begin.line) + ": " + name_ + "." + key + ": " +
+                     why);
+  }
+  // An error about a key when present, else about the table.
+  [[noreturn]] void fail_at(const std::string& key, const std::string& why) const {
+    const toml::node* node = table_ != nullptr ? table_->get(key) : nullptr;
+    if (node != nullptr) fail(*node, key, why);
+    const int line = table_ != nullptr ? static_cast<int>(table_->source().begin.line) : 0;
+    throw InputError(source_ + (line > 0 ? ":" + std::to_string(line) : std::string()) + ": " + name_ + "." + key +
+                     ": " + why);
+  }
+
+  const toml::node* get(const std::string& key) const { return table_ != nullptr ? table_->get(key) : nullptr; }
+
+  double number(const std::string& key, double fallback, double min, double max) const {
+    const toml::node* node = get(key);
+    if (node == nullptr) return fallback;
+    if (!node->is_number()) fail(*node, key, "expected a number");
+    const double value = *node->value<double>();
+    if (!(value >= min && value <= max)) {
+      fail(*node, key, "must be within " + format_number(min) + " .. " + format_number(max) + ", got " +
+                           format_number(value));
+    }
+    return value;
+  }
+
+  std::int64_t integer(const std::string& key, std::int64_t fallback, std::int64_t min, std::int64_t max) const {
+    const toml::node* node = get(key);
+    if (node == nullptr) return fallback;
+    if (!node->is_integer()) fail(*node, key, "expected an integer");
+    const std::int64_t value = *node->value<std::int64_t>();
+    if (value < min || value > max) {
+      fail(*node, key, "must be within " + std::to_string(min) + " .. " + std::to_string(max) + ", got " +
+                           std::to_string(value));
+    }
+    return value;
+  }
+
+  std::string string(const std::string& key, const std::string& fallback) const {
+    const toml::node* node = get(key);
+    if (node == nullptr) return fallback;
+    if (!node->is_string()) fail(*node, key, "expected a string");
+    return *node->value<std::string>();
+  }
+
+  bool boolean(const std::string& key, bool fallback) const {
+    const toml::node* node = get(key);
+    if (node == nullptr) return fallback;
+    if (!node->is_boolean()) fail(*node, key, "expected true or false");
+    return *node->value<bool>();
+  }
+
+ private:
+  const toml::table* table_;
+  std::string name_;
+  const std::string& source_;
+};
+
+const toml::table* section(const toml::table& root, const std::string& name, const std::string& source) {
+  const toml::node* node = root.get(name);
+  if (node == nullptr) return nullptr;
+  if (!node->is_table()) {
+    throw InputError(source + ":" + std::to_string(node->source().begin.line) + ": " + name + ": expected a table");
+  }
+  return node->as_table();
+}
+
+void check_top_level(const toml::table& root, const std::string& source) {
+  static constexpr std::string_view kKnown[] = {"hal",     "devices",     "tec",    "sim",     "control",
+                                                "calibration", "output", "realtime", "failsafe"};
+  for (auto&& [key, node] : root) {
+    if (std::find(std::begin(kKnown), std::end(kKnown), key.str()) == std::end(kKnown)) {
+      throw InputError(source + ":" + std::to_string(node.source().begin.line) + ": " + std::string(key.str()) +
+                       ": unknown key (expected hal, [devices], [tec], [sim], [control], [calibration], [output], "
+                       "[realtime], [failsafe])");
+    }
+  }
+}
+
+FailSafeLimits parse_failsafe(const Table& t) {
+  FailSafeLimits l;
+  l.stale_periods = t.number("stale_periods", l.stale_periods, 1.0, 1000.0);
+  l.stuck_s = t.number("stuck_s", l.stuck_s, 1.0, 86400.0);
+  l.stuck_min_drive_a = t.number("stuck_min_drive_a", l.stuck_min_drive_a, 0.0, 100.0);
+  l.stuck_span_a = t.number("stuck_span_a", l.stuck_span_a, 0.0, 100.0);
+  l.recovery_readings = static_cast<int>(t.integer("recovery_readings", l.recovery_readings, 1, 1000));
+  l.min_valid_c = t.number("min_valid_c", l.min_valid_c, -55.0, 125.0);
+  l.max_valid_c = t.number("max_valid_c", l.max_valid_c, -55.0, 125.0);
+  if (l.min_valid_c >= l.max_valid_c) t.fail_at("max_valid_c", "must be above failsafe.min_valid_c");
+  l.over_temp_c = t.number("over_temp_c", l.over_temp_c, -55.0, 125.0);
+  l.opa548_cooldown_s = t.number("opa548_cooldown_s", l.opa548_cooldown_s, 0.0, 86400.0);
+  return l;
+}
+
+}  // namespace
+
+DaemonConfig parse_daemon_config(const toml::table& root, const std::string& source) {
+  check_top_level(root, source);
+  DaemonConfig c;
+  c.source = source;
+  c.board = parse_board_config(root, source);
+  const double limit_a = c.board.devices.tec.current_limit_a;
+
+  const Table failsafe(section(root, "failsafe", source), "failsafe", source,
+                       {"stale_periods", "stuck_s", "stuck_min_drive_a", "stuck_span_a", "recovery_readings",
+                        "over_temp_c", "opa548_cooldown_s", "min_valid_c", "max_valid_c"});
+  c.controller.limits = parse_failsafe(failsafe);
+
+  const Table control(section(root, "control", source), "control", source,
+                      {"setpoint_c", "kp", "ki", "kd", "period_s", "xi_c", "out_min_a", "out_max_a", "pid",
+                       "feed_forward_a_per_c", "setpoint_ramp_c_per_s", "rate_out_v_per_dps", "sensor_period_s"});
+  ControllerConfig& cc = c.controller;
+  // The setpoint must be one the casing can hold without tripping a fail-safe.
+  cc.setpoint_c = control.number("setpoint_c", cc.setpoint_c, cc.limits.min_valid_c, cc.limits.over_temp_c - 1.0);
+  const double period_s = control.number("period_s", cc.pid.period_s, 0.01, 3600.0);
+  // Seed Section 6.1 gain form (KI = Kp T/TI, KD = Kp TD/T): defaults Eq. 17/18.
+  const double kp = control.number("kp", 0.48, 1e-9, kInf);
+  const double ki = control.number("ki", 0.32, 1e-9, kInf);
+  const double kd = control.number("kd", 10.0, 0.0, kInf);
+  cc.pid = control::PidParams::from_gains(kp, ki, kd, period_s);
+  cc.pid.xi_c = control.number("xi_c", 0.5, 0.0, 200.0);
+  cc.pid.out_min = control.number("out_min_a", -limit_a, -limit_a, limit_a);
+  cc.pid.out_max = control.number("out_max_a", limit_a, -limit_a, limit_a);
+  if (cc.pid.out_min >= cc.pid.out_max) control.fail_at("out_max_a", "must be above control.out_min_a");
+  cc.pid_enabled = control.boolean("pid", true);
+  cc.feed_forward_a_per_c = control.number("feed_forward_a_per_c", 0.0, -10.0, 10.0);
+  cc.setpoint_ramp_c_per_s = control.number("setpoint_ramp_c_per_s", 0.0, 0.0, 100.0);
+  cc.rate_out_v_per_dps = control.number("rate_out_v_per_dps", cc.rate_out_v_per_dps, 1e-9, 1000.0);
+  cc.rate_dac_vref_v = c.board.devices.rate_dac.vref_v;
+  c.sensor_period_s = control.number("sensor_period_s", 1.0, 0.75, 60.0);  // a 12-bit conversion takes 750 ms
+  if (c.sensor_period_s > period_s) {
+    control.fail_at("sensor_period_s", "must not exceed control.period_s (a fresh reading every PID period)");
+  }
+  try {
+    validate(cc);
+  } catch (const std::invalid_argument& e) {
+    control.fail_at("setpoint_c", e.what());
+  }
+
+  const Table calibration(section(root, "calibration", source), "calibration", source, {"file"});
+  c.calibration_file = calibration.string("file", "");
+
+  const Table output(section(root, "output", source), "output", source,
+                     {"stream", "path", "baud", "period_s", "record_csv", "status_interval_s", "write_timeout_s"});
+  OutputConfig& o = c.output;
+  const std::string stream = output.string("stream", "stdout");
+  if (stream == "stdout") {
+    o.stream = StreamKind::stdout_stream;
+  } else if (stream == "file") {
+    o.stream = StreamKind::file;
+  } else if (stream == "serial") {
+    o.stream = StreamKind::serial;
+  } else if (stream == "none") {
+    o.stream = StreamKind::none;
+  } else {
+    output.fail_at("stream", "expected \"stdout\", \"file\", \"serial\" or \"none\", got \"" + stream + "\"");
+  }
+  o.path = output.string("path", "");
+  if ((o.stream == StreamKind::file || o.stream == StreamKind::serial) && o.path.empty()) {
+    output.fail_at("path", "required with stream = \"" + stream + "\" (the file or serial device)");
+  }
+  o.baud = static_cast<int>(output.integer("baud", o.baud, 1200, 921600));
+  o.period_s = output.number("period_s", o.period_s, 0.001, 3600.0);
+  o.record_csv = output.string("record_csv", "");
+  o.status_interval_s = output.number("status_interval_s", o.status_interval_s, 0.0, 86400.0);
+  o.write_timeout_s = output.number("write_timeout_s", o.write_timeout_s, 0.0, 10.0);
+
+  const Table realtime(section(root, "realtime", source), "realtime", source, {"priority", "cpu", "lock_memory"});
+  c.realtime.priority = static_cast<int>(realtime.integer("priority", c.realtime.priority, 1, 99));
+  const std::int64_t cpu = realtime.integer("cpu", -1, -1, 1023);
+  if (cpu >= 0) c.realtime.cpu = static_cast<int>(cpu);
+  c.realtime.lock_memory = realtime.boolean("lock_memory", true);
+  return c;
+}
+
+DaemonConfig load_daemon_config(const std::string& path) {
+  if (!std::filesystem::is_regular_file(path)) throw InputError(path + ": no such configuration file");
+  toml::table root;
+  try {
+    root = toml::parse_file(path);
+  } catch (const toml::parse_error& e) {
+    throw InputError(path + ":" + std::to_string(e.source().begin.line) + ": " + std::string(e.description()));
+  }
+  DaemonConfig c = parse_daemon_config(root, path);
+  if (!c.calibration_file.empty() && std::filesystem::path(c.calibration_file).is_relative()) {
+    c.calibration_file = (std::filesystem::path(path).parent_path() / c.calibration_file).lexically_normal().string();
+  }
+  return c;
+}
+
+}  // namespace gyrotc::app

@@ -1,0 +1,241 @@
+#include "gyrotc/app/daemon/session.hpp"
+
+#include <chrono>
+#include <cinttypes>
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <memory>
+#include <utility>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "gyrotc/algorithms/fit/compensator.hpp"
+#include "gyrotc/app/calibration_file.hpp"
+#include "gyrotc/app/daemon/line_sink.hpp"
+#include "gyrotc/app/daemon/log.hpp"
+#include "gyrotc/app/daemon/realtime_runner.hpp"
+#include "gyrotc/app/daemon/signals.hpp"
+#include "gyrotc/app/daemon/systemd_notify.hpp"
+#include "gyrotc/app/errors.hpp"
+#include "gyrotc/hal/chips/ads1251.hpp"
+
+namespace gyrotc::app {
+namespace {
+
+std::unique_ptr<fit::Compensator> load_compensator(const std::string& path) {
+  if (path.empty()) return std::make_unique<fit::Compensator>(fit::BiasModel::paper_reference());
+  Calibration c = read_calibration(path);
+  return std::make_unique<fit::Compensator>(std::move(c.model), c.scale_mv_per_dps);
+}
+
+std::unique_ptr<LineSink> open_stream(const OutputConfig& o) {
+  switch (o.stream) {
+    case StreamKind::stdout_stream: return LineSink::open_stdout(o.write_timeout_s);
+    case StreamKind::file: return LineSink::open_file(o.path, true, o.write_timeout_s);
+    case StreamKind::serial: return LineSink::open_serial(o.path, o.baud, o.write_timeout_s);
+    case StreamKind::none: break;
+  }
+  return nullptr;
+}
+
+void format_row(const OutputRow& row, char* out, std::size_t size) {
+  std::snprintf(out, size, "%.3f,%.4f,%.4f,%.5f,%.5f,%.4f,%.3f,%" PRIu32, row.time_s, row.casing_c, row.ambient_c,
+                row.gyro_mv, row.rate_dps, row.tec_a, row.setpoint_c, row.flags);
+}
+
+double us(double s) { return s * 1e6; }
+
+// Best effort on every path out: a second safe-off after the runner's is harmless.
+class SafeOffGuard {
+ public:
+  explicit SafeOffGuard(hal::TecDriver& tec) : tec_(tec) {}
+  ~SafeOffGuard() { (void)tec_.safe_off(); }
+  SafeOffGuard(const SafeOffGuard&) = delete;
+  SafeOffGuard& operator=(const SafeOffGuard&) = delete;
+
+ private:
+  hal::TecDriver& tec_;
+};
+
+}  // namespace
+
+void safe_off_board(const DaemonConfig& config) {
+  BoardInstance instance = make_board(config.board, SimTiming::lockstep);
+  hal::Board board = instance.board();
+  const hal::Status tec = board.tec.safe_off();
+  (void)board.rate_dac.write_v(0.5 * config.controller.rate_dac_vref_v);
+  if (!tec.ok()) throw RuntimeFailure("safe-off: the TEC stage did not accept 0 A / disable");
+}
+
+void run_session(const SessionOptions& options) {
+  DaemonConfig config = load_daemon_config(options.config_path);
+  if (options.pid) config.controller.pid_enabled = *options.pid;
+  if (!options.record_csv.empty()) config.output.record_csv = options.record_csv;
+  config.realtime.allow_non_rt = options.allow_non_rt;
+
+  // Compensators stay alive for the whole run: the loop may still be in a
+  // sample with the old one when a reload swaps it (Controller::set_compensator),
+  // and reloads are rare.
+  std::vector<std::unique_ptr<fit::Compensator>> compensators;
+  compensators.push_back(load_compensator(config.calibration_file));
+  Controller controller(config.controller, *compensators.back());
+
+  // Output files before any device: a bad path fails without touching the board.
+  std::unique_ptr<LineSink> stream = options.stream ? open_stream(config.output) : nullptr;
+  std::unique_ptr<LineSink> record;
+  if (!config.output.record_csv.empty()) {
+    record = LineSink::open_file(config.output.record_csv, false, std::max(config.output.write_timeout_s, 1.0));
+  }
+
+  DaemonSignals signals;  // before any thread starts: every thread inherits the mask
+  BoardInstance instance = make_board(config.board, SimTiming::realtime);
+  hal::Board board = instance.board();
+  SafeOffGuard guard(board.tec);
+
+  RealtimeRunnerOptions ro;
+  ro.realtime = config.realtime;
+  ro.duration_s = options.duration_s;
+  ro.sample_period_s = hal::Ads1251::kClocksPerSample / config.board.devices.adc.fclk_hz;
+  ro.output_period_s = config.output.period_s;
+  ro.sensor_period_s = config.sensor_period_s;
+  RealtimeRunner runner(board, controller, ro);
+  // Headers with the first row: nothing is written when the start is refused.
+  if (stream) {
+    runner.add_row_sink([&stream, header = true](const OutputRow& row) mutable {
+      if (std::exchange(header, false)) stream->write_line(kRecordCsvHeader);
+      char line[256];
+      format_row(row, line, sizeof line);
+      stream->write_line(line);
+      stream->flush();
+    });
+  }
+  if (record) {
+    runner.add_row_sink([&record, header = true](const OutputRow& row) mutable {
+      // A calibration needs a casing temperature and a gyro mean on every row.
+      if (!row.have_casing || row.samples == 0) return;
+      if (std::exchange(header, false)) record->write_line(kRecordCsvHeader);
+      char line[256];
+      format_row(row, line, sizeof line);
+      record->write_line(line);
+      record->flush();
+    });
+  }
+
+  runner.start();
+  SystemdNotify notify;
+  notify.ready();
+  GYROTC_LOG_NOTICE("running on %s (%s): %s, memory %s, PID %s, calibration %s",
+                    config.board.hal == HalKind::sim ? "the simulated board" : "the board", config.source.c_str(),
+                    runner.is_realtime() ? "SCHED_FIFO" : "normal scheduler (--allow-non-rt)",
+                    runner.memory_locked() ? "locked" : "not locked", config.controller.pid_enabled ? "on" : "off",
+                    config.calibration_file.empty() ? "the seed's reference model" : config.calibration_file.c_str());
+
+  using clock = std::chrono::steady_clock;
+  const auto started = clock::now();
+  auto next_status = started + std::chrono::duration_cast<clock::duration>(
+                                   std::chrono::duration<double>(config.output.status_interval_s));
+  const double watchdog_s = notify.watchdog_interval_s().value_or(0.0);
+  auto next_watchdog = started;
+  std::uint64_t last_heartbeat = 0;
+  int stop_signal = 0;
+  while (!runner.finished()) {
+    const DaemonSignals::Event event = signals.wait(0.1);
+    if (event == DaemonSignals::Event::stop) {
+      stop_signal = signals.last_signal();
+      break;
+    }
+    if (event == DaemonSignals::Event::reload) {
+      if (config.calibration_file.empty()) {
+        GYROTC_LOG_NOTICE("SIGHUP: no [calibration] file configured, nothing to reload");
+      } else {
+        try {
+          compensators.push_back(load_compensator(config.calibration_file));
+          controller.set_compensator(*compensators.back());
+          GYROTC_LOG_NOTICE("SIGHUP: calibration reloaded from %s", config.calibration_file.c_str());
+        } catch (const std::exception& e) {
+          GYROTC_LOG_ERROR("SIGHUP: calibration not reloaded, the old one stays: %s", e.what());
+        }
+      }
+    }
+    const auto now = clock::now();
+    if (watchdog_s > 0.0 && now >= next_watchdog) {
+      // Only a loop that is still moving is healthy.
+      const std::uint64_t beat = runner.heartbeat();
+      if (beat != last_heartbeat) notify.watchdog();
+      last_heartbeat = beat;
+      next_watchdog = now + std::chrono::duration_cast<clock::duration>(std::chrono::duration<double>(watchdog_s / 2));
+    }
+    if (config.output.status_interval_s > 0.0 && now >= next_status) {
+      const LoopCounters c = runner.counters();
+      const LatencyHistogram::Summary l = runner.latency();
+      char text[320];
+      std::snprintf(text, sizeof text,
+                    "status: %" PRIu64 " samples, casing %.3f C (setpoint %.2f), TEC %.3f A, flags 0x%x, "
+                    "overruns %" PRIu64 ", missed DRDY %" PRIu64 ", latency us min %.0f avg %.1f p99 %s%.0f max %.0f",
+                    c.samples, controller.last_casing_c(), controller.active_setpoint_c(),
+                    controller.last_command().current_a, controller.flags(), c.overruns, c.missed_drdy, us(l.min_s),
+                    us(l.avg_s), l.p99_over ? ">" : "", us(l.p99_s), us(l.max_s));
+      GYROTC_LOG_INFO("%s", text);
+      notify.status(text);
+      next_status += std::chrono::duration_cast<clock::duration>(
+          std::chrono::duration<double>(config.output.status_interval_s));
+    }
+  }
+  const double elapsed_s = std::chrono::duration<double>(clock::now() - started).count();
+  notify.stopping();
+  runner.stop();  // joins, drains the outputs, TEC 0 A, OPA548 disabled, rate DAC mid-scale
+  if (stream) stream->flush();
+  if (record) record->flush();
+
+  const LoopCounters c = runner.counters();
+  const LatencyHistogram::Summary l = runner.latency();
+  GYROTC_LOG_NOTICE("%s after %.1f s: TEC at 0 A, OPA548 disabled (safe-off)",
+                    stop_signal != 0 ? (stop_signal == SIGINT ? "SIGINT" : "SIGTERM") : "duration reached", elapsed_s);
+  GYROTC_LOG_NOTICE("summary: %" PRIu64 " samples, %" PRIu64 " PID ticks, %" PRIu64 " readings, overruns %" PRIu64
+                    ", missed DRDY %" PRIu64 ", rows dropped %" PRIu64
+                    "; latency us min %.1f avg %.1f p50 %.0f p99 %s%.0f max %.1f",
+                    c.samples, c.pid_ticks, c.readings, c.overruns, c.missed_drdy, c.rows_dropped, us(l.min_s),
+                    us(l.avg_s), us(l.p50_s), l.p99_over ? ">" : "", us(l.p99_s), us(l.max_s));
+  std::uint64_t lines_dropped = 0;
+  for (const LineSink* sink : {stream.get(), record.get()}) {
+    if (sink == nullptr) continue;
+    lines_dropped += sink->lines_dropped();
+    if (!sink->first_error().empty()) GYROTC_LOG_WARNING("output %s", sink->first_error().c_str());
+  }
+
+  if (!options.summary_json.empty()) {
+    nlohmann::json j;
+    j["config"] = config.source;
+    j["hal"] = config.board.hal == HalKind::sim ? "sim" : "linux";
+    j["elapsed_s"] = elapsed_s;
+    j["stopped_by"] = stop_signal == 0 ? "duration" : (stop_signal == SIGINT ? "SIGINT" : "SIGTERM");
+    j["realtime"] = runner.is_realtime();
+    j["memory_locked"] = runner.memory_locked();
+    j["samples"] = c.samples;
+    j["overruns"] = c.overruns;
+    j["missed_drdy"] = c.missed_drdy;
+    j["adc_timeouts"] = c.adc_timeouts;
+    j["pid_ticks"] = c.pid_ticks;
+    j["readings"] = c.readings;
+    j["rows_dropped"] = c.rows_dropped;
+    j["lines_dropped"] = lines_dropped;
+    j["flags"] = controller.flags();
+    j["latency_us"] = {{"count", l.count}, {"min", us(l.min_s)}, {"avg", us(l.avg_s)}, {"p50", us(l.p50_s)},
+                       {"p99", us(l.p99_s)}, {"p99_over", l.p99_over}, {"max", us(l.max_s)}};
+    if (instance.sim_board) {
+      // What the simulated hardware shows after the safe-off.
+      const hal::SimBoard& sim = *instance.sim_board;
+      const auto& tec = config.board.devices.tec;
+      j["final_state"] = {{"tec_current_a", (sim.tec_dac_chip().output_v() - 0.5 * config.board.devices.tec_dac.vref_v) *
+                                                tec.gain_a_per_v},
+                          {"opa548_enabled", sim.opa548_chip().output_enabled()}};
+    }
+    std::ofstream out(options.summary_json);
+    out << j.dump(2) << '\n';
+    if (!out) throw RuntimeFailure("cannot write the summary to '" + options.summary_json + "'");
+  }
+}
+
+}  // namespace gyrotc::app

@@ -1,0 +1,204 @@
+#include <cmath>
+
+#include "gyrotc/algorithms/fit/compensator.hpp"
+#include "gyrotc/app/controller.hpp"
+#include "gyrotc_catch.hpp"
+
+using namespace gyrotc::app;
+using gyrotc::fit::BiasModel;
+using gyrotc::fit::Compensator;
+using gyrotc::hal::AdcSample;
+using gyrotc::hal::TempFault;
+using gyrotc::hal::TemperatureReading;
+
+namespace {
+
+TemperatureReading good(double temp_c, double t_s) { return {temp_c, t_s, true, TempFault::none}; }
+TemperatureReading bad(double t_s, TempFault fault) { return {0.0, t_s, false, fault}; }
+
+// A controller fed a reading every second and ticked every 2 s, as the
+// runners do. The reading alternates between two values one DS18B20 step
+// apart unless a fixed value is given.
+struct Harness {
+  Compensator compensator{BiasModel::paper_reference()};
+  ControllerConfig config;
+  Controller controller;
+  double now_s = 0.0;
+
+  explicit Harness(ControllerConfig c = {}) : config(c), controller(c, compensator) {}
+
+  TecCommand run_for(double seconds, double temp_c, bool deliver = true, bool jitter = true) {
+    TecCommand last = controller.last_command();
+    const double end = now_s + seconds;
+    while (now_s < end - 1e-9) {
+      now_s += 1.0;
+      const double value = jitter && (static_cast<long>(now_s) % 2 == 0) ? temp_c + 0.0625 : temp_c;
+      if (deliver) controller.on_temperature(good(value, now_s - 0.75), now_s);
+      if (static_cast<long>(now_s) % 2 == 0) last = controller.on_pid_tick(now_s);
+    }
+    return last;
+  }
+};
+
+}  // namespace
+
+TEST_CASE("a casing colder than the setpoint drives positive (heating) TEC current") {
+  Harness h;
+  const TecCommand cmd = h.run_for(10.0, 40.0);
+  CHECK(cmd.enable);
+  CHECK(cmd.current_a > 0.0);
+  CHECK((cmd.flags & kFlagTecOff) == 0);
+}
+
+TEST_CASE("every sample is compensated at the last casing temperature") {
+  Harness h;
+  h.run_for(4.0, 30.0, true, false);
+  const BiasModel model = BiasModel::paper_reference();
+  AdcSample s;
+  s.gyro_mv = model.bias_mv(30.0) + 8.774 * 2.0;
+  const SampleResult r = h.controller.on_sample(s, h.now_s);
+  CHECK(r.valid);
+  CHECK(r.rate_dps == Approx(2.0).margin(1e-9));
+  CHECK(r.rate_out_v == Approx(2.5 + 2.0 * 0.01));
+}
+
+TEST_CASE("no reading for more than 3 PID periods turns the TEC off, flags it and recovers") {
+  Harness h;
+  h.run_for(10.0, 54.0);
+  TecCommand cmd = h.run_for(8.0, 54.0, /*deliver=*/false);  // > 3 periods of 2 s
+  CHECK_FALSE(cmd.enable);
+  CHECK(cmd.current_a == 0.0);
+  CHECK((cmd.flags & kFlagTempStale) != 0);
+  CHECK((cmd.flags & kFlagTecOff) != 0);
+  cmd = h.run_for(2.0, 54.0);  // two good readings: not yet (M = 3)
+  CHECK_FALSE(cmd.enable);
+  cmd = h.run_for(2.0, 54.0);
+  CHECK(cmd.enable);
+  CHECK((cmd.flags & kFlagTempStale) == 0);
+}
+
+TEST_CASE("an invalid reading turns the TEC off at the next tick and M good readings recover") {
+  Harness h;
+  h.run_for(10.0, 54.0);
+  h.controller.on_temperature(bad(h.now_s, TempFault::crc), h.now_s);
+  TecCommand cmd = h.controller.on_pid_tick(h.now_s);
+  CHECK_FALSE(cmd.enable);
+  CHECK((cmd.flags & kFlagTempInvalid) != 0);
+  // 85 C power-on value flagged by the driver, and an out-of-range value.
+  h.controller.on_temperature(bad(h.now_s, TempFault::power_on_value), h.now_s);
+  h.controller.on_temperature(good(200.0, h.now_s), h.now_s);
+  CHECK_FALSE(h.controller.on_pid_tick(h.now_s).enable);
+  cmd = h.run_for(4.0, 54.0);
+  CHECK(cmd.enable);
+  CHECK((cmd.flags & kFlagTempInvalid) == 0);
+}
+
+TEST_CASE("a reading stuck while the TEC drives hard turns the TEC off until the value moves") {
+  Harness h;
+  // Stuck at 50 C: PD drives > 0.5 A all along, the reading never changes.
+  TecCommand cmd = h.run_for(290.0, 50.0, true, false);
+  CHECK(cmd.enable);
+  cmd = h.run_for(20.0, 50.0, true, false);
+  CHECK_FALSE(cmd.enable);
+  CHECK((cmd.flags & kFlagTempStuck) != 0);
+  cmd = h.run_for(10.0, 50.0, true, false);  // still the same value: stays off
+  CHECK_FALSE(cmd.enable);
+  cmd = h.run_for(4.0, 49.0);  // the sensor moves again: M good readings
+  CHECK(cmd.enable);
+  CHECK((cmd.flags & kFlagTempStuck) == 0);
+}
+
+TEST_CASE("a steady reading at the setpoint with little drive is not taken for a stuck sensor") {
+  Harness h;
+  const TecCommand cmd = h.run_for(1200.0, 55.0, true, false);
+  CHECK(cmd.enable);
+  CHECK((cmd.flags & kFlagTempStuck) == 0);
+}
+
+TEST_CASE("casing over-temperature latches the TEC off even after good readings") {
+  Harness h;
+  h.run_for(10.0, 54.0);
+  h.controller.on_temperature(good(81.0, h.now_s), h.now_s);
+  TecCommand cmd = h.controller.on_pid_tick(h.now_s);
+  CHECK_FALSE(cmd.enable);
+  CHECK((cmd.flags & kFlagOverTempLatched) != 0);
+  cmd = h.run_for(60.0, 54.0);
+  CHECK_FALSE(cmd.enable);
+  CHECK((cmd.flags & kFlagOverTempLatched) != 0);
+}
+
+TEST_CASE("the OPA548 thermal flag turns the TEC off, reported, for the cool-down time") {
+  Harness h;
+  h.run_for(10.0, 54.0);
+  h.controller.on_opa548_thermal(true, h.now_s);
+  TecCommand cmd = h.run_for(2.0, 54.0);
+  CHECK_FALSE(cmd.enable);
+  CHECK((cmd.flags & kFlagOpa548Thermal) != 0);
+  // Disabled, the part reads "no fault": the TEC stays off until the cool-down is over.
+  h.controller.on_opa548_thermal(false, h.now_s);
+  cmd = h.run_for(2.0, 54.0);
+  CHECK_FALSE(cmd.enable);
+  CHECK((cmd.flags & kFlagOpa548Thermal) != 0);
+  h.run_for(h.config.limits.opa548_cooldown_s, 54.0);
+  h.controller.on_opa548_thermal(false, h.now_s);
+  cmd = h.run_for(2.0, 54.0);
+  CHECK(cmd.enable);
+  CHECK((cmd.flags & kFlagOpa548Thermal) == 0);
+}
+
+TEST_CASE("an ADC timeout flags the rate output invalid until the next good sample") {
+  Harness h;
+  h.run_for(4.0, 30.0);
+  h.controller.on_adc_timeout(h.now_s);
+  CHECK((h.controller.flags() & kFlagAdcInvalid) != 0);
+  AdcSample clipped;
+  clipped.clipped = true;
+  SampleResult r = h.controller.on_sample(clipped, h.now_s);
+  CHECK_FALSE(r.valid);
+  CHECK(r.rate_out_v == Approx(2.5));  // mid-scale
+  CHECK((r.flags & kFlagAdcInvalid) != 0);
+  AdcSample fine;
+  fine.gyro_mv = 80.0;
+  r = h.controller.on_sample(fine, h.now_s);
+  CHECK(r.valid);
+  CHECK((r.flags & kFlagAdcInvalid) == 0);
+}
+
+TEST_CASE("the compensator can be swapped between samples") {
+  Harness h;
+  h.run_for(4.0, 30.0, true, false);
+  gyrotc::fit::Polynomial flat;
+  flat.coefficients_mv = {50.0};
+  flat.t_min_c = -40.0;
+  flat.t_max_c = 80.0;
+  const Compensator replacement(BiasModel::polynomial(flat));
+  h.controller.set_compensator(replacement);
+  AdcSample s;
+  s.gyro_mv = 50.0;
+  CHECK(h.controller.on_sample(s, h.now_s).rate_dps == Approx(0.0).margin(1e-12));
+}
+
+TEST_CASE("with the PID disabled the TEC is never enabled") {
+  ControllerConfig c;
+  c.pid_enabled = false;
+  Harness h(c);
+  const TecCommand cmd = h.run_for(20.0, 30.0);
+  CHECK_FALSE(cmd.enable);
+  CHECK((cmd.flags & kFlagTecOff) != 0);
+}
+
+TEST_CASE("a ramped setpoint starts at the casing temperature and moves at the set rate") {
+  ControllerConfig c;
+  c.setpoint_ramp_c_per_s = 0.05;
+  Harness h(c);
+  h.run_for(100.0, 20.0);  // stale at the first tick, then 3 readings to recover
+  CHECK(h.controller.active_setpoint_c() > 20.0);
+  CHECK(h.controller.active_setpoint_c() < 20.0 + 0.05 * 100.0 + 1e-9);
+}
+
+TEST_CASE("configurations that cannot work are rejected naming the field") {
+  ControllerConfig c;
+  c.setpoint_c = 90.0;  // above the over-temperature limit
+  const Compensator comp(BiasModel::paper_reference());
+  CHECK_THROWS_WITH(Controller(c, comp), Catch::Contains("setpoint_c"));
+}

@@ -1,0 +1,258 @@
+#include <signal.h>
+#include <sys/wait.h>
+#include <fcntl.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <cstdio>
+#include <iterator>
+#include <cmath>
+#include <fstream>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+#include <toml++/toml.h>
+
+#include "gyrotc/algorithms/fit/compensator.hpp"
+#include "gyrotc/app/daemon/config.hpp"
+#include "gyrotc/app/daemon/realtime_runner.hpp"
+#include "gyrotc/app/errors.hpp"
+#include "gyrotc/hal/chips/ads1251.hpp"
+#include "gyrotc_catch.hpp"
+
+using namespace gyrotc;
+using gyrotc::app::RealtimeRunner;
+
+// Every test here starts the runner's threads (in process or in a `gyrotc`
+// child): native only under qemu (see link.cmake).
+#if !defined(GYROTC_NO_GUEST_THREADS)
+
+namespace {
+
+const std::string kSimConfig = std::string(GYROTC_SOURCE_DIR) + "/deploy/config/gyrotc-sim.toml";
+
+struct SimRig {
+  app::DaemonConfig config = app::load_daemon_config(kSimConfig);
+  app::BoardInstance instance = app::make_board(config.board, app::SimTiming::realtime);
+  fit::Compensator compensator{fit::BiasModel::paper_reference()};
+  app::Controller controller{config.controller, compensator};
+
+  app::RealtimeRunnerOptions options(double duration_s, bool allow_non_rt) const {
+    app::RealtimeRunnerOptions o;
+    o.realtime = config.realtime;
+    o.realtime.priority = 10;
+    o.realtime.lock_memory = false;
+    o.realtime.allow_non_rt = allow_non_rt;
+    o.duration_s = duration_s;
+    o.sample_period_s = hal::Ads1251::kClocksPerSample / config.board.devices.adc.fclk_hz;
+    o.output_period_s = 0.5;
+    return o;
+  }
+  bool tec_off() const {
+    const hal::SimBoard& sim = *instance.sim_board;
+    const double mid_v = 0.5 * config.board.devices.tec_dac.vref_v;
+    return !sim.opa548_chip().output_enabled() && std::fabs(sim.tec_dac_chip().output_v() - mid_v) < 1e-3;
+  }
+};
+
+// Starts the gyrotc executable with args, stderr to err_path.
+pid_t spawn_gyrotc(const std::vector<std::string>& args, const std::string& err_path) {
+  const std::string exe = std::string(GYROTC_BINARY_DIR) + "/app/gyrotc";
+  std::vector<char*> argv;
+  argv.push_back(const_cast<char*>(exe.c_str()));
+  for (const auto& a : args) argv.push_back(const_cast<char*>(a.c_str()));
+  argv.push_back(nullptr);
+  // Truncated here, not in the child: a caller polling the file must never
+  // see a previous run's lines.
+  const int fd = open(err_path.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+  if (fd < 0) return -1;
+  const pid_t pid = fork();
+  if (pid == 0) {
+    dup2(fd, STDERR_FILENO);
+    const int null = open("/dev/null", O_WRONLY);
+    dup2(null, STDOUT_FILENO);
+    execv(exe.c_str(), argv.data());
+    _exit(127);
+  }
+  close(fd);
+  return pid;
+}
+
+std::string read_text(const std::string& path) {
+  std::ifstream in(path);
+  return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+}
+
+// Waits (bounded) until the file at path contains text.
+bool wait_for_text(const std::string& path, const std::string& text) {
+  for (int i = 0; i < 300; ++i) {
+    if (read_text(path).find(text) != std::string::npos) return true;
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  }
+  return false;
+}
+
+int exit_status(pid_t pid) {
+  int status = 0;
+  if (waitpid(pid, &status, 0) != pid || !WIFEXITED(status)) return -1;
+  return WEXITSTATUS(status);
+}
+
+void wait_finished(const RealtimeRunner& runner) {
+  // A bound on the test, not a timing assertion: the runs below last seconds.
+  for (int i = 0; i < 600 && !runner.finished(); ++i) std::this_thread::sleep_for(std::chrono::milliseconds(100));
+}
+
+}  // namespace
+
+TEST_CASE("a run on the real-time simulated board heats, then ends with the TEC at 0 A and the OPA548 disabled") {
+  SimRig rig;
+  RealtimeRunner runner(rig.instance.board(), rig.controller, rig.options(4.5, true));
+  std::vector<app::OutputRow> rows;
+  runner.add_row_sink([&rows](const app::OutputRow& row) { rows.push_back(row); });
+  runner.start();
+  wait_finished(runner);
+  REQUIRE(runner.finished());
+  runner.stop();
+  const app::LoopCounters c = runner.counters();
+  CHECK(c.samples > 0);
+  CHECK(c.pid_ticks >= 1);
+  CHECK(c.readings >= 1);
+  CHECK(runner.latency().count == c.samples);
+  REQUIRE_FALSE(rows.empty());
+  // The casing starts at 16 C, below the 55 C setpoint: the PID heated.
+  bool heated = false;
+  for (const auto& row : rows) heated = heated || row.tec_a > 0.0;
+  CHECK(heated);
+  CHECK(rig.tec_off());
+  CHECK((rig.controller.flags() & app::kFlagTecOff) == 0);  // it was the runner's stop, not a fault
+}
+
+TEST_CASE("without SCHED_FIFO permission the runner refuses, naming --allow-non-rt, and leaves the TEC off") {
+  SimRig rig;
+  RealtimeRunner runner(rig.instance.board(), rig.controller, rig.options(0.5, false));
+  try {
+    runner.start();
+  } catch (const app::RuntimeFailure& e) {
+    CHECK(std::string(e.what()).find("--allow-non-rt") != std::string::npos);
+    CHECK(rig.tec_off());
+    WARN(std::string("SCHED_FIFO not permitted here (the refusal was checked): ") + e.what());
+    return;
+  }
+  CHECK(runner.is_realtime());
+  wait_finished(runner);
+  runner.stop();
+  CHECK(rig.tec_off());
+  SUCCEED("SCHED_FIFO is permitted here: the refusal path was not exercised");
+}
+
+TEST_CASE("SIGTERM to a running `gyrotc run` on the simulated board: exit 0, TEC off, summary written") {
+  const std::string dir = std::string(GYROTC_BINARY_DIR);
+  const std::string config = dir + "/daemon_sigterm.toml";
+  const std::string summary = dir + "/daemon_sigterm_summary.json";
+  const std::string stream = dir + "/daemon_sigterm_stream.csv";
+  {
+    std::ifstream in(kSimConfig);
+    std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    // Lines to a file (not the test's stdout), every 0.2 s.
+    const std::string from = "stream = \"stdout\"";
+    text.replace(text.find(from), from.size(), "stream = \"file\"\npath = \"" + stream + "\"");
+    const std::string period = "period_s = 1.0                 # one line";
+    text.replace(text.find(period), period.size(), "period_s = 0.2  # one line");
+    std::ofstream(config) << text;
+  }
+  std::remove(summary.c_str());
+  std::remove(stream.c_str());
+  const std::string exe = dir + "/app/gyrotc";
+  const pid_t pid = fork();
+  REQUIRE(pid >= 0);
+  if (pid == 0) {
+    execl(exe.c_str(), exe.c_str(), "run", "--config", config.c_str(), "--allow-non-rt", "--duration", "60",
+          "--summary-json", summary.c_str(), static_cast<char*>(nullptr));
+    _exit(127);
+  }
+  // Wait until the daemon streams lines (it runs), then stop it.
+  for (int i = 0; i < 300; ++i) {
+    std::ifstream lines(stream);
+    std::string header, first;
+    if (std::getline(lines, header) && std::getline(lines, first)) break;
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  }
+  kill(pid, SIGTERM);
+  int status = 0;
+  REQUIRE(waitpid(pid, &status, 0) == pid);
+  REQUIRE(WIFEXITED(status));
+  CHECK(WEXITSTATUS(status) == 0);
+  std::ifstream in(summary);
+  REQUIRE(in.good());
+  const nlohmann::json j = nlohmann::json::parse(in);
+  CHECK(j.at("stopped_by") == "SIGTERM");
+  CHECK(j.at("samples").get<std::uint64_t>() > 0);
+  CHECK(j.at("final_state").at("tec_current_a").get<double>() == Approx(0.0).margin(1e-3));
+  CHECK(j.at("final_state").at("opa548_enabled") == false);
+  for (const char* key : {"min", "avg", "p50", "p99", "max"}) CHECK(j.at("latency_us").contains(key));
+  CHECK(j.contains("overruns"));
+  CHECK(j.contains("missed_drdy"));
+}
+
+TEST_CASE("SIGHUP reloads the calibration file, an invalid one is rejected, logged, and the run goes on") {
+  const std::string dir = std::string(GYROTC_BINARY_DIR);
+  const std::string config = dir + "/daemon_sighup.toml";
+  const std::string calibration = dir + "/daemon_sighup_calibration.toml";
+  const std::string err = dir + "/daemon_sighup.err";
+  std::ofstream(calibration) << read_text(std::string(GYROTC_DATA_DIR) + "/calibration_table2.toml");
+  {
+    std::string text = read_text(kSimConfig);
+    const std::string from = "file = \"\"";
+    text.replace(text.find(from), from.size(), "file = \"" + calibration + "\"");
+    const std::string stream = "stream = \"stdout\"";
+    text.replace(text.find(stream), stream.size(), "stream = \"none\"");
+    std::ofstream(config) << text;
+  }
+  const pid_t pid = spawn_gyrotc({"run", "--config", config, "--allow-non-rt", "--duration", "60"}, err);
+  REQUIRE(pid > 0);
+  REQUIRE(wait_for_text(err, "running on"));
+  kill(pid, SIGHUP);
+  CHECK(wait_for_text(err, "calibration reloaded from " + calibration));
+  std::ofstream(calibration) << "format = \"not-a-calibration\"\n";
+  kill(pid, SIGHUP);
+  CHECK(wait_for_text(err, "calibration not reloaded, the old one stays"));
+  kill(pid, SIGTERM);
+  CHECK(exit_status(pid) == 0);
+  CHECK(read_text(err).find("SIGTERM") != std::string::npos);
+}
+
+TEST_CASE("gyrotc safe-off on the simulated board exits 0, a bad configuration exits 2 naming the key") {
+  const std::string dir = std::string(GYROTC_BINARY_DIR);
+  CHECK(exit_status(spawn_gyrotc({"safe-off", "--config", kSimConfig}, dir + "/daemon_safe_off.err")) == 0);
+  const std::string bad = dir + "/daemon_bad.toml";
+  std::ofstream(bad) << "hal = \"sim\"\n[control]\nperiod_s = -2\n";
+  const std::string err = dir + "/daemon_bad.err";
+  CHECK(exit_status(spawn_gyrotc({"run", "--config", bad, "--allow-non-rt"}, err)) == 2);
+  CHECK(read_text(err).find("daemon_bad.toml:3: control.period_s: must be within") != std::string::npos);
+}
+
+TEST_CASE("gyrotc record writes the columns gyrotc fit reads, one row per period with a casing reading") {
+  const std::string dir = std::string(GYROTC_BINARY_DIR);
+  const std::string csv = dir + "/daemon_record.csv";
+  std::remove(csv.c_str());
+  REQUIRE(exit_status(spawn_gyrotc({"record", "--config", kSimConfig, "--out", csv, "--duration", "3", "--pid", "off",
+                                    "--allow-non-rt"},
+                                   dir + "/daemon_record.err")) == 0);
+  std::ifstream in(csv);
+  std::string header;
+  REQUIRE(std::getline(in, header));
+  CHECK(header == "time_s,sensor_c,ambient_c,gyro_mv,rate_dps_compensated,tec_a,setpoint_c,flags");
+  int rows = 0;
+  for (std::string line; std::getline(in, line);) {
+    ++rows;
+    const double sensor_c = std::stod(line.substr(line.find(',') + 1));
+    CHECK(sensor_c == Approx(16.0).margin(1.0));  // the casing starts at 16 C; the TEC stays off
+    CHECK(line.find("nan") == std::string::npos);
+  }
+  CHECK(rows >= 1);
+}
+
+#endif  // !GYROTC_NO_GUEST_THREADS

@@ -1,0 +1,114 @@
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <string>
+
+#include "gyrotc/algorithms/fit/bp_network_fit.hpp"
+#include "gyrotc/algorithms/fit/fit_method.hpp"
+#include "gyrotc/app/calibration_file.hpp"
+#include "gyrotc/app/csv_table.hpp"
+#include "gyrotc/app/errors.hpp"
+#include "gyrotc_catch.hpp"
+
+using gyrotc::app::Calibration;
+using gyrotc::app::InputError;
+using gyrotc::app::parse_calibration;
+using namespace gyrotc::fit;
+
+namespace {
+
+struct Table2 {
+  std::vector<double> temp_c;
+  std::vector<double> gyro_mv;
+};
+
+Table2 table2() {
+  const auto t = gyrotc::app::CsvTable::read(std::string(GYROTC_DATA_DIR) + "/table2_zero_bias.csv");
+  return {t.numbers("temp_c"), t.numbers("gyro_mv")};
+}
+
+// Writes the model, reads it back and compares the curves bit for bit.
+void check_round_trip(const BiasModel& model) {
+  const std::string text = gyrotc::app::format_calibration(model, 8.5);
+  const Calibration back = parse_calibration(text, "round_trip.toml");
+  CHECK(back.model.kind() == model.kind());
+  CHECK(back.scale_mv_per_dps == 8.5);
+  CHECK(back.model.t_min_c() == model.t_min_c());
+  CHECK(back.model.t_max_c() == model.t_max_c());
+  for (double t = -50.0; t <= 90.0; t += 0.37) CHECK(back.model.bias_mv(t) == model.bias_mv(t));
+}
+
+std::string with_header(const std::string& body) {
+  return "format = \"gyrotc-calibration\"\nversion = 1\n" + body;
+}
+
+}  // namespace
+
+TEST_CASE("polynomial, piecewise, BP network and the paper reference survive a save and load") {
+  const Table2 t = table2();
+  MethodOptions o;
+  o.method = Method::polynomial;
+  o.orders = {6};
+  check_round_trip(fit_method(t.temp_c, t.gyro_mv, o).model);
+  o.method = Method::paper;
+  o.orders.clear();
+  check_round_trip(fit_method(t.temp_c, t.gyro_mv, o).model);
+  BpTrainOptions bp;
+  bp.hidden = {4, 3};
+  bp.restarts = 1;
+  bp.max_epochs = 5;
+  check_round_trip(BiasModel::bp_network(train_bp_network(t.temp_c, t.gyro_mv, bp).net));
+  check_round_trip(BiasModel::paper_reference());
+}
+
+TEST_CASE("save_calibration writes a file load_calibration reads") {
+  const auto path = std::filesystem::temp_directory_path() / "gyrotc_calibration_test.toml";
+  gyrotc::app::save_calibration(BiasModel::paper_reference(), path.string());
+  const BiasModel back = gyrotc::app::load_calibration(path.string());
+  CHECK(back.kind() == BiasModel::Kind::paper_reference);
+  std::filesystem::remove(path);
+  CHECK_THROWS_AS(gyrotc::app::load_calibration(path.string()), InputError);
+}
+
+TEST_CASE("the shipped default calibration is the best LOO model of Table 2") {
+  const BiasModel m = gyrotc::app::load_calibration(std::string(GYROTC_DATA_DIR) + "/calibration_table2.toml");
+  const Table2 t = table2();
+  MethodOptions o;
+  o.method = Method::automatic;
+  const MethodFit best = fit_method(t.temp_c, t.gyro_mv, o);
+  CHECK(m.kind() == best.model.kind());
+  for (double x = -40.0; x <= 80.0; x += 0.5) CHECK(m.bias_mv(x) == Approx(best.model.bias_mv(x)).margin(1e-9));
+}
+
+TEST_CASE("calibration errors name the file, line and key") {
+  auto error_of = [](const std::string& text) {
+    try {
+      parse_calibration(text, "cal.toml");
+    } catch (const InputError& e) {
+      return std::string(e.what());
+    }
+    return std::string("no error");
+  };
+  CHECK_THAT(error_of("version = 1\nkind = \"paper_reference\"\n"), Catch::Contains("key 'format': missing"));
+  CHECK_THAT(error_of(with_header("kind = \"spline\"\n")), Catch::Contains("cal.toml:3: key 'kind'"));
+  CHECK_THAT(error_of(with_header("kind = \"polynomial\"\nrange_c = [0.0, 10.0]\n[polynomial]\ncenter_c = 0\n"
+                                  "scale_c = 1\ncoefficients_mv = [1.0, \"x\"]\n")),
+             Catch::Contains("key 'polynomial.coefficients_mv[1]': expected a number"));
+  CHECK_THAT(error_of(with_header("kind = \"polynomial\"\nrange_c = [0.0, 10.0]\n[polynomial]\ncenter_c = 0\n"
+                                  "scale_c = 1\ncoefficients_mv = [1.0]\ncolour = 2\n")),
+             Catch::Contains("key 'polynomial.colour': unknown key"));
+  CHECK_THAT(error_of(with_header("kind = \"polynomial\"\nrange_c = [10.0, 0.0]\n")),
+             Catch::Contains("key 'range_c'"));
+  CHECK_THAT(error_of(with_header("kind = \"piecewise\"\nrange_c = [0.0, 10.0]\n[piecewise]\n"
+                                  "breakpoints_c = [5.0, 6.0]\n[[piecewise.segment]]\ncenter_c = 0\nscale_c = 1\n"
+                                  "coefficients_mv = [1.0]\n[[piecewise.segment]]\ncenter_c = 0\nscale_c = 1\n"
+                                  "coefficients_mv = [1.0]\n")),
+             Catch::Contains("key 'piecewise.segment'"));
+  CHECK_THAT(error_of(with_header("kind = \"bp_network\"\nrange_c = [0.0, 10.0]\n[bp_network]\n"
+                                  "out_center_mv = 0\nout_half_range_mv = 1\n[[bp_network.layer]]\ninputs = 1\n"
+                                  "outputs = 2\nactivation = \"tansig\"\nweights = [1.0]\nbiases = [0.0, 0.0]\n"
+                                  "[[bp_network.layer]]\ninputs = 2\noutputs = 1\nactivation = \"linear\"\n"
+                                  "weights = [1.0, 1.0]\nbiases = [0.0]\n")),
+             Catch::Contains("layers[0].weights"));
+  CHECK_THAT(error_of(with_header("kind = [\n")), Catch::Contains("cal.toml:3:"));
+}

@@ -1,0 +1,136 @@
+#include <fcntl.h>
+#include <unistd.h>
+
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include <CLI/CLI.hpp>
+#include <nlohmann/json.hpp>
+
+#include "gyrotc/app/commands.hpp"
+#include "gyrotc/app/errors.hpp"
+#include "gyrotc_catch.hpp"
+
+namespace fs = std::filesystem;
+
+namespace {
+
+const std::string kSimConfig = GYROTC_SOURCE_DIR "/deploy/config/gyrotc-sim.toml";
+
+struct ProbeRun {
+  int status = 0;
+  std::string out;
+};
+
+// Runs `gyrotc probe <args>` in-process, capturing stdout; status as main()
+// would return it.
+ProbeRun probe(const std::vector<std::string>& args) {
+  CLI::App app;
+  app.require_subcommand(1);
+  gyrotc::app::add_probe_command(app);
+  std::vector<std::string> argv_text{"gyrotc", "probe"};
+  argv_text.insert(argv_text.end(), args.begin(), args.end());
+  std::vector<char*> argv;
+  for (auto& a : argv_text) argv.push_back(a.data());
+
+  const fs::path capture = fs::temp_directory_path() / ("gyrotc-probe-" + std::to_string(::getpid()) + ".out");
+  std::fflush(stdout);
+  const int saved = ::dup(1);
+  const int fd = ::open(capture.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0600);
+  ::dup2(fd, 1);
+  ::close(fd);
+  ProbeRun run;
+  try {
+    app.parse(static_cast<int>(argv.size()), argv.data());
+  } catch (const gyrotc::app::CommandExit& e) {
+    run.status = e.status();
+  } catch (const gyrotc::app::InputError&) {
+    run.status = 2;
+  }
+  std::fflush(stdout);
+  ::dup2(saved, 1);
+  ::close(saved);
+  std::ifstream in(capture);
+  std::stringstream text;
+  text << in.rdbuf();
+  run.out = text.str();
+  fs::remove(capture);
+  return run;
+}
+
+std::vector<std::string> lines_of(const std::string& text) {
+  std::vector<std::string> lines;
+  std::stringstream in(text);
+  for (std::string line; std::getline(in, line);) lines.push_back(line);
+  return lines;
+}
+
+// The sim example with hal = "linux" (and, so that no machine's real w1 bus
+// can answer, a w1 root that does not exist).
+std::string linux_variant() {
+  std::ifstream in(kSimConfig);
+  std::stringstream text;
+  text << in.rdbuf();
+  std::string s = text.str();
+  s.replace(s.find("hal = \"sim\""), 11, "hal = \"linux\"");
+  for (std::size_t at; (at = s.find("\"/sys/bus/w1/devices\"")) != std::string::npos;) {
+    s.replace(at, 21, "\"/nonexistent-gyrotc-w1\"");
+  }
+  const fs::path path = fs::temp_directory_path() / ("gyrotc-probe-linux-" + std::to_string(::getpid()) + ".toml");
+  std::ofstream(path) << s;
+  return path.string();
+}
+
+}  // namespace
+
+TEST_CASE("probe on the sim example reports every device OK and exits 0") {
+  const ProbeRun run = probe({"--config", kSimConfig});
+  CHECK(run.status == 0);
+  const auto lines = lines_of(run.out);
+  REQUIRE(lines.size() == 7);  // header + adc, casing, ambient, rate_dac, tec_dac, opa548
+  CHECK(lines[0] == "board: hal = \"sim\" (" + kSimConfig + ")");
+  for (std::size_t i = 1; i < lines.size(); ++i) {
+    INFO(lines[i]);
+    CHECK(lines[i].substr(16, 2) == "OK");
+  }
+  CHECK(lines[1].rfind("adc ", 0) == 0);
+  CHECK(lines[2].find("16.0000 C") != std::string::npos);  // [sim] initial_temp_c
+}
+
+TEST_CASE("probe --json on the sim example lists every device ok") {
+  const ProbeRun run = probe({"--config", kSimConfig, "--json"});
+  CHECK(run.status == 0);
+  const auto json = nlohmann::json::parse(run.out);
+  CHECK(json["hal"] == "sim");
+  CHECK(json["ok"] == true);
+  REQUIRE(json["devices"].size() == 6);
+  for (const auto& device : json["devices"]) CHECK(device["status"] == "ok");
+}
+
+TEST_CASE("probe with hal = linux and no devices prints one error line per device and exits non-zero") {
+  const std::string config = linux_variant();
+  const ProbeRun run = probe({"--config", config});
+  fs::remove(config);
+  CHECK(run.status == 1);
+  const auto lines = lines_of(run.out);
+  REQUIRE(lines.size() == 7);
+  const std::vector<std::string> devices{"adc", "casing_sensor", "ambient_sensor", "rate_dac", "tec_dac", "opa548"};
+  for (std::size_t i = 0; i < devices.size(); ++i) {
+    INFO(lines[i + 1]);
+    CHECK(lines[i + 1].rfind(devices[i] + " ", 0) == 0);
+    CHECK(lines[i + 1].substr(16, 5) == "ERROR");
+  }
+  CHECK(lines[1].find("'/dev/spidev0.0'") != std::string::npos);
+  CHECK(lines[1].find("gpiochip0") != std::string::npos);
+  CHECK(lines[4].find("'/dev/spidev6.0'") != std::string::npos);
+  CHECK(lines[5].find("'/dev/spidev6.1'") != std::string::npos);
+  CHECK(lines[2].find("/nonexistent-gyrotc-w1") != std::string::npos);
+}
+
+TEST_CASE("probe without a readable config file is a usage error") {
+  CHECK(probe({"--config", "/nonexistent/gyrotc.toml"}).status == 2);
+}

@@ -1,0 +1,111 @@
+#include <string>
+#include <vector>
+
+#include "gyrotc/algorithms/fit/bias_model.hpp"
+#include "gyrotc/app/lockstep_runner.hpp"
+#include "gyrotc/app/plant_file.hpp"
+#include "gyrotc_catch.hpp"
+
+using namespace gyrotc::app;
+
+namespace {
+
+const gyrotc::fit::BiasModel& calibration() {
+  static const gyrotc::fit::BiasModel model = gyrotc::fit::BiasModel::paper_reference();
+  return model;
+}
+
+SimulationResult short_run(std::uint64_t seed, ControllerMode mode = ControllerMode::paper) {
+  SimulationSetup setup;
+  setup.controller = controller_preset(mode, setup.plant);
+  setup.calibration = &calibration();
+  setup.sample_rate_hz = 50.0;
+  setup.seed = seed;
+  const gyrotc::model::ChamberProfile profile({{"hold", 0.0, 300.0, 16.0, 16.0}});
+  return run_simulation(setup, profile);
+}
+
+}  // namespace
+
+TEST_CASE("lockstep runs are deterministic for a seed") {
+  const auto a = short_run(5);
+  const auto b = short_run(5);
+  const auto c = short_run(6);
+  REQUIRE(a.rows.size() == b.rows.size());
+  bool same = true;
+  bool differs = false;
+  for (std::size_t i = 0; i < a.rows.size(); ++i) {
+    same = same && a.rows[i].gyro_mv == b.rows[i].gyro_mv && a.rows[i].casing_c == b.rows[i].casing_c &&
+           a.rows[i].tec_a == b.rows[i].tec_a;
+    differs = differs || a.rows[i].gyro_mv != c.rows[i].gyro_mv;
+  }
+  CHECK(same);
+  CHECK(differs);
+}
+
+TEST_CASE("with the controller off the TEC stays off and the casing follows the ambient") {
+  const auto r = short_run(1, ControllerMode::off);
+  for (const auto& row : r.rows) {
+    CHECK(row.tec_a == 0.0);
+    CHECK((row.flags & kFlagTecOff) != 0);
+  }
+  CHECK(r.rows.back().casing_c == Approx(16.0).margin(0.5));
+}
+
+TEST_CASE("the runner exposes the board for fault injection and reports the reaction") {
+  SimulationSetup setup;
+  setup.controller = controller_preset(ControllerMode::paper, setup.plant);
+  gyrotc::hal::SimBoardOptions options;
+  options.adc.fclk_hz = 50.0 * 384.0;
+  options.tec_current_limit_a = setup.plant.current_limit_a;
+  gyrotc::model::PlantParams plant = setup.plant;
+  gyrotc::hal::SimBoard board(plant, 1, options);
+  const gyrotc::fit::Compensator compensator(calibration());
+  Controller controller(setup.controller, compensator);
+  const gyrotc::model::ChamberProfile profile({{"hold", 0.0, 600.0, 16.0, 16.0}});
+  LockstepRunner runner(board, controller, profile);
+  std::vector<TecCommand> commands;
+  runner.on_pid_tick([&](double, const TecCommand& c) { commands.push_back(c); });
+  runner.run_until(60.0);
+  REQUIRE_FALSE(commands.empty());
+  CHECK(commands.back().enable);
+  CHECK(board.plant().tec_current_a() > 0.0);
+  runner.board().inject_opa548_thermal_shutdown(true);
+  runner.run_until(64.0);  // one PID period later
+  CHECK_FALSE(commands.back().enable);
+  CHECK((commands.back().flags & kFlagOpa548Thermal) != 0);
+  CHECK(board.plant().tec_current_a() == 0.0);
+  runner.board().inject_opa548_thermal_shutdown(false);
+  runner.run_until(100.0);  // inside the cool-down: still off
+  CHECK_FALSE(commands.back().enable);
+  runner.run_until(140.0);  // after it: retried and running again
+  CHECK(commands.back().enable);
+  CHECK(board.plant().tec_current_a() > 0.0);
+}
+
+TEST_CASE("a plant description round-trips through its TOML file, effects included") {
+  gyrotc::model::PlantParams p;
+  p.casing_capacity_j_per_k = 123.5;
+  p.dac_bits = 14;
+  p.effects.thermal_lag = gyrotc::model::ThermalLagEffect{42.0};
+  p.effects.tec_joule_heating = gyrotc::model::TecJouleHeatingEffect{3.25};
+  const auto q = parse_plant(format_plant(p), "round-trip.toml");
+  CHECK(q.casing_capacity_j_per_k == 123.5);
+  CHECK(q.dac_bits == 14);
+  REQUIRE(q.effects.thermal_lag);
+  CHECK(q.effects.thermal_lag->tau_s == 42.0);
+  REQUIRE(q.effects.tec_joule_heating);
+  CHECK(q.effects.tec_joule_heating->r_ohm == 3.25);
+  CHECK_FALSE(q.effects.warm_up);
+}
+
+TEST_CASE("a plant file with an unknown key or a bad value names the line and the key") {
+  CHECK_THROWS_WITH(parse_plant("[thermal]\ncasing_capacity_j_per_k = 1.0\nbogus = 2\n", "p.toml"),
+                    Catch::Contains("p.toml:3") && Catch::Contains("thermal.bogus"));
+  CHECK_THROWS_WITH(parse_plant("[tec]\nresistance_ohm = \"12\"\n", "p.toml"),
+                    Catch::Contains("p.toml:2") && Catch::Contains("tec.resistance_ohm"));
+  CHECK_THROWS_WITH(parse_plant("[tec]\nresistance_ohm = -1.0\n", "p.toml"),
+                    Catch::Contains("resistance_ohm"));
+  CHECK_THROWS_WITH(parse_plant("[effects.nonsense]\nx = 1.0\n", "p.toml"),
+                    Catch::Contains("effects.nonsense"));
+}
