@@ -12,7 +12,8 @@ for w in "${want[@]}"; do
   case "$w" in
     native)
       pkgs+=(build-essential cmake pkg-config file libeigen3-dev libgpiod-dev catch2 libcli11-dev
-             libtomlplusplus-dev nlohmann-json3-dev libbenchmark-dev libsystemd-dev) ;;
+             libtomlplusplus-dev nlohmann-json3-dev libbenchmark-dev
+             systemd) ;;  # systemd: systemd-analyze for tests/deploy
     aarch64)
       need_arch+=(arm64)
       pkgs+=(g++-aarch64-linux-gnu qemu-user libgpiod-dev:arm64 libtomlplusplus-dev:arm64
@@ -22,7 +23,7 @@ for w in "${want[@]}"; do
       pkgs+=(g++-arm-linux-gnueabihf qemu-user libgpiod-dev:armhf libtomlplusplus-dev:armhf
              libbenchmark-dev:armhf) ;;
     bench)
-      pkgs+=(rt-tests) ;;
+      pkgs+=(rt-tests time jq) ;;  # cyclictest, /usr/bin/time, JSON for scripts/bench.sh
     *) echo "deps.sh: unknown set '$w' (native, aarch64, armhf, bench)" >&2; exit 2 ;;
   esac
 done
