@@ -210,4 +210,33 @@ TecCommand run_pid_tick(Controller& controller, hal::TecDriver& tec, double now_
   return command;
 }
 
+double RowAccumulator::mean_gyro_mv() const noexcept {
+  return gyro_count > 0 ? gyro_sum_mv / static_cast<double>(gyro_count) : std::numeric_limits<double>::quiet_NaN();
+}
+
+double RowAccumulator::mean_rate_dps() const noexcept {
+  return rate_count > 0 ? rate_sum_dps / static_cast<double>(rate_count) : std::numeric_limits<double>::quiet_NaN();
+}
+
+SampleResult run_sample_tick(Controller& controller, hal::RateDac& rate_dac, const hal::AdcSample& sample,
+                             double now_s, RowAccumulator& row) noexcept {
+  const SampleResult r = controller.on_sample(sample, now_s);
+  (void)rate_dac.write_v(r.rate_out_v);
+  row.gyro_sum_mv += sample.gyro_mv;
+  ++row.gyro_count;
+  if (r.valid) {
+    row.rate_sum_dps += r.rate_dps;
+    ++row.rate_count;
+  }
+  row.flags |= r.flags;
+  return r;
+}
+
+void run_adc_timeout_tick(Controller& controller, hal::RateDac& rate_dac, double now_s,
+                          RowAccumulator& row) noexcept {
+  controller.on_adc_timeout(now_s);
+  (void)rate_dac.write_v(0.5 * controller.config().rate_dac_vref_v);
+  row.flags |= controller.flags();
+}
+
 }  // namespace gyrotc::app

@@ -39,29 +39,18 @@ void LockstepRunner::run_until(double until_s, const std::function<void(double)>
   const double start_s = now_s();
   const double span_s = until_s - start_s;
   double next_progress_s = start_s;
-  const double mid_v = 0.5 * controller_.config().rate_dac_vref_v;
   double now = start_s;
   while (now < until_s) {
     auto sample = devices_.adc.read(adc_timeout_s_);
     if (sample.ok()) {
       now = sample->time_s;  // the DRDY edge: the virtual clock stands there
       ++counters_.samples;
-      const SampleResult r = controller_.on_sample(*sample, now);
-      (void)devices_.rate_dac.write_v(r.rate_out_v);
-      gyro_sum_mv_ += sample->gyro_mv;
-      ++gyro_count_;
-      if (r.valid) {
-        rate_sum_dps_ += r.rate_dps;
-        ++rate_count_;
-      }
-      flags_or_ |= r.flags;
+      const SampleResult r = run_sample_tick(controller_, devices_.rate_dac, *sample, now, row_sums_);
       if (sample_hook_) sample_hook_(now, r);
     } else {
       now = devices_.clock.now_s();
       ++counters_.adc_timeouts;
-      controller_.on_adc_timeout(now);
-      (void)devices_.rate_dac.write_v(mid_v);
-      flags_or_ |= controller_.flags();
+      run_adc_timeout_tick(controller_, devices_.rate_dac, now, row_sums_);
       // A stalled DRDY must not stall virtual time: move on by a timeout.
       if (devices_.clock.now_s() <= now) board_.advance_to(now + adc_timeout_s_);
       now = devices_.clock.now_s();
@@ -98,7 +87,7 @@ void LockstepRunner::handle_events(double now) {
     const TecCommand command = run_pid_tick(controller_, devices_.tec, now);
     ++counters_.pid_ticks;
     saturated_ = saturated_ || (command.flags & kFlagTecSaturated) != 0;
-    flags_or_ |= command.flags;
+    row_sums_.flags |= command.flags;
     if (pid_hook_) pid_hook_(now, command);
     while (next_pid_s_ <= now) next_pid_s_ += controller_.config().pid.period_s;
   }
@@ -122,16 +111,11 @@ void LockstepRunner::emit_record(double now) {
   row.tec_v = plant.tec_voltage_v();
   row.tec_a = plant.tec_current_a();
   row.setpoint_c = controller_.active_setpoint_c();
-  const double nan = std::numeric_limits<double>::quiet_NaN();
-  row.gyro_mv = gyro_count_ > 0 ? gyro_sum_mv_ / static_cast<double>(gyro_count_) : nan;
-  row.rate_dps_compensated = rate_count_ > 0 ? rate_sum_dps_ / static_cast<double>(rate_count_) : nan;
+  row.gyro_mv = row_sums_.mean_gyro_mv();
+  row.rate_dps_compensated = row_sums_.mean_rate_dps();
   row.tec_saturated = saturated_;
-  row.flags = flags_or_ | controller_.flags();
-  gyro_sum_mv_ = 0.0;
-  gyro_count_ = 0;
-  rate_sum_dps_ = 0.0;
-  rate_count_ = 0;
-  flags_or_ = 0;
+  row.flags = row_sums_.flags | controller_.flags();
+  row_sums_ = RowAccumulator{};
   saturated_ = false;
   if (record_hook_) record_hook_(row);
 }

@@ -47,6 +47,20 @@ double autocorrelation(std::span<const double> r, double mean, double var, std::
   return s / (static_cast<double>(r.size()) * var);
 }
 
+struct Moments {
+  double mean = 0.0;
+  double var = 0.0;  // population variance (divided by n)
+};
+
+Moments moments(std::span<const double> r) {
+  Moments m;
+  for (double v : r) m.mean += v;
+  m.mean /= static_cast<double>(r.size());
+  for (double v : r) m.var += (v - m.mean) * (v - m.mean);
+  m.var /= static_cast<double>(r.size());
+  return m;
+}
+
 }  // namespace
 
 double chi_square_sf(double x, double dof) { return upper_gamma_q(0.5 * dof, 0.5 * x); }
@@ -55,17 +69,12 @@ double ljung_box_p(std::span<const double> residual, std::size_t lags) {
   const std::size_t n = residual.size();
   if (n < 4) return 1.0;
   lags = std::clamp<std::size_t>(lags, 1, n / 2);
-  double mean = 0.0;
-  for (double v : residual) mean += v;
-  mean /= static_cast<double>(n);
-  double var = 0.0;
-  for (double v : residual) var += (v - mean) * (v - mean);
-  var /= static_cast<double>(n);
-  if (var <= 0.0) return 1.0;
+  const Moments m = moments(residual);
+  if (m.var <= 0.0) return 1.0;
   const double nd = static_cast<double>(n);
   double q = 0.0;
   for (std::size_t k = 1; k <= lags; ++k) {
-    const double rho = autocorrelation(residual, mean, var, k);
+    const double rho = autocorrelation(residual, m.mean, m.var, k);
     q += rho * rho / (nd - static_cast<double>(k));
   }
   q *= nd * (nd + 2.0);
@@ -75,14 +84,9 @@ double ljung_box_p(std::span<const double> residual, std::size_t lags) {
 double lag1_autocorrelation(std::span<const double> residual) {
   const std::size_t n = residual.size();
   if (n < 3) return 0.0;
-  double mean = 0.0;
-  for (double v : residual) mean += v;
-  mean /= static_cast<double>(n);
-  double var = 0.0;
-  for (double v : residual) var += (v - mean) * (v - mean);
-  var /= static_cast<double>(n);
-  if (var <= 0.0) return 0.0;
-  return std::clamp(autocorrelation(residual, mean, var, 1), 0.0, 0.99);
+  const Moments m = moments(residual);
+  if (m.var <= 0.0) return 0.0;
+  return std::clamp(autocorrelation(residual, m.mean, m.var, 1), 0.0, 0.99);
 }
 
 double effective_sample_size(std::size_t n, double rho) {

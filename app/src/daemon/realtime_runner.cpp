@@ -80,20 +80,10 @@ bool RealtimeRunner::step() noexcept {
       }
     }
     last_sample_s_ = sample->time_s;
-    const SampleResult r = controller_.on_sample(*sample, now);
-    (void)board_.rate_dac.write_v(r.rate_out_v);
-    gyro_sum_mv_ += sample->gyro_mv;
-    ++gyro_count_;
-    if (r.valid) {
-      rate_sum_dps_ += r.rate_dps;
-      ++rate_count_;
-    }
-    flags_or_ |= r.flags;
+    (void)run_sample_tick(controller_, board_.rate_dac, *sample, now, row_sums_);
     samples_.store(samples_.load(std::memory_order_relaxed) + 1, std::memory_order_relaxed);
   } else {
-    controller_.on_adc_timeout(now);
-    (void)board_.rate_dac.write_v(mid_v_);
-    flags_or_ |= controller_.flags();
+    run_adc_timeout_tick(controller_, board_.rate_dac, now, row_sums_);
     adc_timeouts_.store(adc_timeouts_.load(std::memory_order_relaxed) + 1, std::memory_order_relaxed);
     missed_drdy_.store(missed_drdy_.load(std::memory_order_relaxed) + 1, std::memory_order_relaxed);
   }
@@ -114,7 +104,7 @@ bool RealtimeRunner::step() noexcept {
 
   if (now >= next_pid_s_) {
     const TecCommand command = run_pid_tick(controller_, board_.tec, now);
-    flags_or_ |= command.flags;
+    row_sums_.flags |= command.flags;
     pid_ticks_.store(pid_ticks_.load(std::memory_order_relaxed) + 1, std::memory_order_relaxed);
     while (next_pid_s_ <= now) next_pid_s_ += controller_.config().pid.period_s;
   }
@@ -136,22 +126,18 @@ bool RealtimeRunner::step() noexcept {
 void RealtimeRunner::push_row(double now_s) noexcept {
   OutputRow row;
   row.time_s = now_s - start_s_;
-  row.gyro_mv = gyro_count_ > 0 ? gyro_sum_mv_ / gyro_count_ : kNaN;
-  row.rate_dps = rate_count_ > 0 ? rate_sum_dps_ / rate_count_ : kNaN;
-  row.casing_c = controller_.last_casing_c();
+  row.gyro_mv = row_sums_.mean_gyro_mv();
+  row.rate_dps = row_sums_.mean_rate_dps();
+  row.casing_c = have_casing_ ? controller_.last_casing_c() : kNaN;  // no reading yet: not 0 C
   row.ambient_c = ambient_c_;
   const TecCommand& command = controller_.last_command();
   row.tec_a = command.enable ? command.current_a : 0.0;
   row.setpoint_c = controller_.active_setpoint_c();
-  row.flags = flags_or_ | controller_.flags();
-  row.samples = gyro_count_;
+  row.flags = row_sums_.flags | controller_.flags();
+  row.samples = static_cast<std::uint32_t>(row_sums_.gyro_count);
   row.have_casing = have_casing_;
   (void)ring_.try_push(row);  // full: dropped and counted by the ring
-  gyro_sum_mv_ = 0.0;
-  rate_sum_dps_ = 0.0;
-  gyro_count_ = 0;
-  rate_count_ = 0;
-  flags_or_ = 0;
+  row_sums_ = RowAccumulator{};
 }
 
 void RealtimeRunner::publish_readings(const hal::TemperatureReading& casing,

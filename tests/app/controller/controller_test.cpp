@@ -164,6 +164,45 @@ TEST_CASE("an ADC timeout flags the rate output invalid until the next good samp
   CHECK((r.flags & kFlagAdcInvalid) == 0);
 }
 
+TEST_CASE("the runners' sample tick drives the rate DAC and averages only valid samples into the row") {
+  struct LastWrite final : gyrotc::hal::RateDac {
+    double volts = -1.0;
+   private:
+    gyrotc::hal::Status do_write_v(double v) noexcept override {
+      volts = v;
+      return gyrotc::hal::Status::success();
+    }
+    gyrotc::hal::Status do_power_down() noexcept override { return gyrotc::hal::Status::success(); }
+  } dac;
+  Harness h;
+  h.run_for(4.0, 30.0, true, false);
+  const double bias_mv = BiasModel::paper_reference().bias_mv(30.0);
+  RowAccumulator row;
+  CHECK(std::isnan(row.mean_gyro_mv()));
+  CHECK(std::isnan(row.mean_rate_dps()));
+
+  AdcSample s;
+  s.gyro_mv = bias_mv + 8.774 * 1.0;
+  SampleResult r = run_sample_tick(h.controller, dac, s, h.now_s, row);
+  CHECK(dac.volts == r.rate_out_v);
+  s.gyro_mv = bias_mv + 8.774 * 3.0;
+  (void)run_sample_tick(h.controller, dac, s, h.now_s, row);
+  AdcSample clipped;
+  clipped.gyro_mv = 5000.0;
+  clipped.clipped = true;
+  r = run_sample_tick(h.controller, dac, clipped, h.now_s, row);
+  CHECK_FALSE(r.valid);
+
+  CHECK(row.gyro_count == 3);
+  CHECK(row.rate_count == 2);
+  CHECK(row.mean_rate_dps() == Approx(2.0).margin(1e-9));  // the clipped sample left out
+  CHECK(row.mean_gyro_mv() == Approx((2.0 * bias_mv + 8.774 * 4.0 + 5000.0) / 3.0));
+  CHECK((row.flags & kFlagAdcInvalid) != 0);
+
+  run_adc_timeout_tick(h.controller, dac, h.now_s, row);
+  CHECK(dac.volts == Approx(2.5));  // mid-scale: zero rate
+}
+
 TEST_CASE("the compensator can be swapped between samples") {
   Harness h;
   h.run_for(4.0, 30.0, true, false);

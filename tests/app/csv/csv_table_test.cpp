@@ -4,18 +4,13 @@
 
 #include "gyrotc/app/errors.hpp"
 #include "gyrotc_catch.hpp"
+#include "input_error_of.hpp"
 
 using gyrotc::app::CsvTable;
-using gyrotc::app::InputError;
 
 namespace {
 std::string error_of(const std::string& text, const char* column = "gyro_mv") {
-  try {
-    CsvTable::parse(text, "in.csv").numbers(column);
-  } catch (const InputError& e) {
-    return e.what();
-  }
-  return "";
+  return gyrotc::test::input_error_of([&] { CsvTable::parse(text, "in.csv").numbers(column); });
 }
 }  // namespace
 

@@ -5,9 +5,9 @@
 #include "gyrotc/app/daemon/config.hpp"
 #include "gyrotc/app/errors.hpp"
 #include "gyrotc_catch.hpp"
+#include "input_error_of.hpp"
 
 using gyrotc::app::DaemonConfig;
-using gyrotc::app::InputError;
 using gyrotc::app::parse_daemon_config;
 
 namespace {
@@ -16,12 +16,7 @@ DaemonConfig parse(const std::string& text) { return parse_daemon_config(toml::p
 
 // The InputError message of parsing text ("" if it parsed).
 std::string error_of(const std::string& text) {
-  try {
-    parse(text);
-  } catch (const InputError& e) {
-    return e.what();
-  }
-  return "";
+  return gyrotc::test::input_error_of([&] { parse(text); });
 }
 
 }  // namespace

@@ -9,6 +9,7 @@
 #include "gyrotc/app/csv_table.hpp"
 #include "gyrotc/app/errors.hpp"
 #include "gyrotc_catch.hpp"
+#include "input_error_of.hpp"
 
 using gyrotc::app::Calibration;
 using gyrotc::app::InputError;
@@ -82,12 +83,7 @@ TEST_CASE("the shipped default calibration is the best LOO model of Table 2") {
 
 TEST_CASE("calibration errors name the file, line and key") {
   auto error_of = [](const std::string& text) {
-    try {
-      parse_calibration(text, "cal.toml");
-    } catch (const InputError& e) {
-      return std::string(e.what());
-    }
-    return std::string("no error");
+    return gyrotc::test::input_error_of([&] { parse_calibration(text, "cal.toml"); });
   };
   CHECK_THAT(error_of("version = 1\nkind = \"paper_reference\"\n"), Catch::Contains("key 'format': missing"));
   CHECK_THAT(error_of(with_header("kind = \"spline\"\n")), Catch::Contains("cal.toml:3: key 'kind'"));

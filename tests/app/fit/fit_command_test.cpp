@@ -11,10 +11,10 @@
 #include "gyrotc/app/commands.hpp"
 #include "gyrotc/app/errors.hpp"
 #include "gyrotc_catch.hpp"
+#include "input_error_of.hpp"
 #include "run_command.hpp"
 
 namespace fs = std::filesystem;
-using gyrotc::app::InputError;
 
 namespace {
 
@@ -31,12 +31,7 @@ fs::path write_temp(const std::string& name, const std::string& text) {
 }
 
 std::string error_of(const std::vector<std::string>& args) {
-  try {
-    run_fit(args);
-  } catch (const InputError& e) {
-    return e.what();
-  }
-  return "no error";
+  return gyrotc::test::input_error_of([&] { run_fit(args); });
 }
 
 }  // namespace

@@ -4,6 +4,7 @@
 
 #include "gyrotc/app/errors.hpp"
 #include "gyrotc_catch.hpp"
+#include "input_error_of.hpp"
 
 using namespace gyrotc;
 using namespace gyrotc::app;
@@ -13,12 +14,7 @@ namespace {
 BoardConfig parse(const std::string& text) { return parse_board_config(toml::parse(text), "board.toml"); }
 
 std::string error_of(const std::string& text) {
-  try {
-    parse(text);
-  } catch (const InputError& e) {
-    return e.what();
-  }
-  return "";
+  return test::input_error_of([&] { parse(text); });
 }
 
 }  // namespace

@@ -166,4 +166,28 @@ class Controller {
 // off rather than enabled at an unknown current.
 TecCommand run_pid_tick(Controller& controller, hal::TecDriver& tec, double now_s) noexcept;
 
+// What the per-sample path produced since the last output row: the sums for
+// the mean raw and compensated rate, and every flag raised. Both runners
+// average their rows with one.
+struct RowAccumulator {
+  double gyro_sum_mv = 0.0;
+  double rate_sum_dps = 0.0;
+  std::uint64_t gyro_count = 0;
+  std::uint64_t rate_count = 0;  // valid compensated samples only
+  std::uint32_t flags = 0;
+
+  double mean_gyro_mv() const noexcept;   // NaN when no sample came
+  double mean_rate_dps() const noexcept;  // NaN when no valid sample came
+};
+
+// One ADC sample as both runners handle it: compensated by the controller,
+// the rate out to the rate DAC, the row sums updated.
+SampleResult run_sample_tick(Controller& controller, hal::RateDac& rate_dac, const hal::AdcSample& sample,
+                             double now_s, RowAccumulator& row) noexcept;
+
+// An ADC timeout as both runners handle it: the controller is told and the
+// rate DAC goes to mid-scale (zero rate) until the next good sample.
+void run_adc_timeout_tick(Controller& controller, hal::RateDac& rate_dac, double now_s,
+                          RowAccumulator& row) noexcept;
+
 }  // namespace gyrotc::app

@@ -112,11 +112,7 @@ class LockstepRunner {
   double next_record_s_ = 0.0;
 
   // Record accumulators.
-  double gyro_sum_mv_ = 0.0;
-  std::uint64_t gyro_count_ = 0;
-  double rate_sum_dps_ = 0.0;
-  std::uint64_t rate_count_ = 0;
-  std::uint32_t flags_or_ = 0;
+  RowAccumulator row_sums_;
   bool saturated_ = false;
   double sensor_c_ = 0.0;
 };

@@ -138,11 +138,7 @@ class RealtimeRunner {
   double next_row_s_ = 0.0;
   double last_sample_s_ = -1.0;
   std::uint64_t readings_version_ = 0;
-  double gyro_sum_mv_ = 0.0;
-  double rate_sum_dps_ = 0.0;
-  std::uint32_t gyro_count_ = 0;
-  std::uint32_t rate_count_ = 0;
-  std::uint32_t flags_or_ = 0;
+  RowAccumulator row_sums_;
   bool have_casing_ = false;
   double ambient_c_;
 
