@@ -47,6 +47,7 @@ void validate(const ControllerConfig& c) {
 Controller::Controller(const ControllerConfig& config, const fit::Compensator& compensator)
     : config_(config),
       compensator_(&compensator),
+      in_use_(&compensator),
       pid_((validate(config), config.pid)),
       active_setpoint_c_(config.setpoint_c) {}
 
@@ -66,6 +67,8 @@ SampleResult Controller::on_sample(const hal::AdcSample& sample, double /*now_s*
     cached_clamped_ = c.temp_clamped;
     inverse_scale_ = 1.0 / compensator->scale_mv_per_dps();
     bias_cached_ = true;
+    // Release: every use of an older compensator happens before a reader sees this one.
+    in_use_.store(compensator, std::memory_order_release);
   }
   SampleResult result;
   set_flag(kFlagModelClamped, cached_clamped_);

@@ -75,9 +75,9 @@ void run_session(const SessionOptions& options) {
   if (!options.record_csv.empty()) config.output.record_csv = options.record_csv;
   config.realtime.allow_non_rt = options.allow_non_rt;
 
-  // Compensators stay alive for the whole run: the loop may still be in a
-  // sample with the old one when a reload swaps it (Controller::set_compensator),
-  // and reloads are rare.
+  // A compensator a reload replaced stays alive until the loop has moved to
+  // the new one (Controller::compensator_in_use): it may be in a sample with
+  // the old one when the reload swaps them.
   std::vector<std::unique_ptr<fit::Compensator>> compensators;
   compensators.push_back(load_compensator(config.calibration_file));
   Controller controller(config.controller, *compensators.back());
@@ -158,6 +158,9 @@ void run_session(const SessionOptions& options) {
           GYROTC_LOG_ERROR("SIGHUP: calibration not reloaded, the old one stays: %s", e.what());
         }
       }
+    }
+    if (compensators.size() > 1 && controller.compensator_in_use() == compensators.back().get()) {
+      compensators.erase(compensators.begin(), compensators.end() - 1);
     }
     const auto now = clock::now();
     if (watchdog_s > 0.0 && now >= next_watchdog) {

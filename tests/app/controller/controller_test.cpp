@@ -217,6 +217,20 @@ TEST_CASE("the compensator can be swapped between samples") {
   CHECK(h.controller.on_sample(s, h.now_s).rate_dps == Approx(0.0).margin(1e-12));
 }
 
+TEST_CASE("a replaced compensator is reported in use until a sample has used the new one") {
+  Harness h;
+  const Compensator first(BiasModel::paper_reference());
+  h.controller.set_compensator(first);
+  AdcSample s;
+  (void)h.controller.on_sample(s, h.now_s);
+  CHECK(h.controller.compensator_in_use() == &first);
+  const Compensator second(BiasModel::paper_reference());
+  h.controller.set_compensator(second);
+  CHECK(h.controller.compensator_in_use() == &first);  // no sample since: first may still be in use
+  (void)h.controller.on_sample(s, h.now_s);
+  CHECK(h.controller.compensator_in_use() == &second);
+}
+
 TEST_CASE("with the PID disabled the TEC is never enabled") {
   ControllerConfig c;
   c.pid_enabled = false;

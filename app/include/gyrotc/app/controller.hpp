@@ -105,11 +105,14 @@ class Controller {
   TecCommand on_pid_tick(double now_s) noexcept;
 
   // Calibration reload: the next on_sample uses the new compensator. The
-  // caller keeps the old one alive until the sample in flight (if any) has
-  // returned. Safe to call from another thread than on_sample's.
+  // caller keeps the old one alive until compensator_in_use() is the new one.
+  // Safe to call from another thread than on_sample's.
   void set_compensator(const fit::Compensator& compensator) noexcept {
     compensator_.store(&compensator, std::memory_order_release);
   }
+  // The compensator on_sample last used. Once it is the one last set, the
+  // sample thread holds no older one: those may be freed (any thread).
+  const fit::Compensator* compensator_in_use() const noexcept { return in_use_.load(std::memory_order_acquire); }
 
   std::uint32_t flags() const noexcept { return flags_; }
   // The setpoint in use (ramping with setpoint_ramp_c_per_s).
@@ -127,6 +130,7 @@ class Controller {
 
   ControllerConfig config_;
   std::atomic<const fit::Compensator*> compensator_;
+  std::atomic<const fit::Compensator*> in_use_;
   control::IncrementalPid pid_;
   std::uint32_t flags_ = kFlagTecOff;
 
