@@ -247,11 +247,11 @@ BENCHMARK(BM_PidStep);
 
 // --- the whole per-sample path ----------------------------------------------------
 
-// Ads1251::read -> Controller::on_sample -> Ad5060::write_v, over in-memory
-// buses. Arg 0: the model kind. Arg 1: 0 = steady (the casing reading comes
-// about once a second, so the controller subtracts a cached bias), 1 = a new
-// casing reading before every sample (one model evaluation every sample: the
-// worst case).
+// Ads1251::read -> run_sample_tick (Controller::on_sample, Ad5060::write_v and
+// the row sums, as both runners do it), over in-memory buses. Arg 0: the model
+// kind. Arg 1: 0 = steady (the casing reading comes about once a second, so
+// the controller subtracts a cached bias), 1 = a new casing reading before
+// every sample (one model evaluation every sample: the worst case).
 void BM_SamplePath(benchmark::State& state) {
   const gyrotc::fit::Compensator comp(model_of(state.range(0)));
   const bool new_reading_each_sample = state.range(1) != 0;
@@ -267,6 +267,7 @@ void BM_SamplePath(benchmark::State& state) {
   double now_s = 0.0;
   controller.on_temperature({.temp_c = 25.0, .time_s = 0.0, .valid = true}, 0.0);
   std::size_t i = 0;
+  gyrotc::app::RowAccumulator row;
   const PerSample timer;
   for (auto _ : state) {
     now_s += 1e-3;
@@ -275,13 +276,13 @@ void BM_SamplePath(benchmark::State& state) {
     }
     const auto sample = rate_adc.read(1.0);
     if (sample) {
-      const auto r = controller.on_sample(*sample, now_s);
-      auto s = rate_dac.write_v(r.rate_out_v);
-      benchmark::DoNotOptimize(s);
+      const auto r = gyrotc::app::run_sample_tick(controller, rate_dac, *sample, now_s, row);
+      benchmark::DoNotOptimize(r);
     } else {
-      controller.on_adc_timeout(now_s);
+      gyrotc::app::run_adc_timeout_tick(controller, rate_dac, now_s, row);
     }
   }
+  benchmark::DoNotOptimize(row);
   state.SetLabel(std::string(comp.model().kind_name()) + (new_reading_each_sample ? " new-reading" : " steady"));
   timer.report(state);
 }
@@ -297,17 +298,18 @@ void BM_SamplePathSimBoard(benchmark::State& state) {
   gyrotc::hal::SimBoard sim(plant, 1, {});
   gyrotc::hal::Board board = sim.board();
   controller.on_temperature({.temp_c = 25.0, .time_s = 0.0, .valid = true}, 0.0);
+  gyrotc::app::RowAccumulator row;
   const PerSample timer;
   for (auto _ : state) {
     const auto sample = board.adc.read(3e-3);
     if (sample) {
-      const auto r = controller.on_sample(*sample, sample->time_s);
-      auto s = board.rate_dac.write_v(r.rate_out_v);
-      benchmark::DoNotOptimize(s);
+      const auto r = gyrotc::app::run_sample_tick(controller, board.rate_dac, *sample, sample->time_s, row);
+      benchmark::DoNotOptimize(r);
     } else {
-      controller.on_adc_timeout(board.clock.now_s());
+      gyrotc::app::run_adc_timeout_tick(controller, board.rate_dac, board.clock.now_s(), row);
     }
   }
+  benchmark::DoNotOptimize(row);
   timer.report(state);
 }
 BENCHMARK(BM_SamplePathSimBoard);
