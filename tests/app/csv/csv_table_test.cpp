@@ -49,3 +49,25 @@ TEST_CASE("quoted text cells may hold commas") {
   const auto t = CsvTable::parse("segment,description\nA,\"hold, then ramp\"\n", "in.csv");
   CHECK(t.text("description") == std::vector<std::string>{"hold, then ramp"});
 }
+
+TEST_CASE("numbers take the forms CSV writers produce: sign, exponent, bare point") {
+  const auto t = CsvTable::parse("x\n+1.5\n-2\n.5\n3.\n1e-3\n-4.25E+2\n", "in.csv");
+  CHECK(t.numbers("x") == std::vector<double>{1.5, -2.0, 0.5, 3.0, 1e-3, -425.0});
+}
+
+TEST_CASE("a doubled sign, trailing text, an overflow and infinity are not numbers") {
+  CHECK(error_of("gyro_mv\n+-1\n") == "in.csv:2: column 'gyro_mv': '+-1' is not a number");
+  CHECK(error_of("gyro_mv\n+\n") == "in.csv:2: column 'gyro_mv': '+' is not a number");
+  CHECK(error_of("gyro_mv\n1.5mV\n") == "in.csv:2: column 'gyro_mv': '1.5mV' is not a number");
+  CHECK(error_of("gyro_mv\n1e999\n") == "in.csv:2: column 'gyro_mv': '1e999' is not a finite number");
+  CHECK(error_of("gyro_mv\n-inf\n") == "in.csv:2: column 'gyro_mv': '-inf' is not a finite number");
+}
+
+TEST_CASE("a table keeps its cells when moved and copied") {
+  // Short files sit in std::string's inline buffer: the cells must not point there.
+  CsvTable moved = CsvTable::parse("x\n7\n", "in.csv");
+  const CsvTable copy = moved;
+  const CsvTable target = std::move(moved);
+  CHECK(target.numbers("x") == std::vector<double>{7.0});
+  CHECK(copy.numbers("x") == std::vector<double>{7.0});
+}

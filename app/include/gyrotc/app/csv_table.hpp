@@ -1,6 +1,8 @@
 #pragma once
 
 #include <cstddef>
+#include <cstdint>
+#include <memory>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -9,6 +11,8 @@ namespace gyrotc::app {
 
 // A CSV file with a header row, read whole. Cells stay text until a column is
 // asked for as numbers, so files with descriptive columns (fig26) read fine.
+// The text is held once and every cell is a view into it (about 16 bytes a
+// cell besides the file itself), so a 10^7-sample record fits in memory.
 // Every error is an InputError naming the file, and the line and column where
 // there is one: "data.csv:7: column 'gyro_mv': 'abc' is not a number".
 // Blank lines and lines starting with '#' are skipped.
@@ -20,7 +24,7 @@ class CsvTable {
 
   const std::string& path() const { return path_; }
   const std::vector<std::string>& columns() const { return columns_; }
-  std::size_t rows() const { return cells_.size(); }
+  std::size_t rows() const { return lines_.size(); }
   bool has(std::string_view column) const;
   // 1-based line number of data row `row` in the file.
   std::size_t line_of(std::size_t row) const { return lines_.at(row); }
@@ -34,12 +38,15 @@ class CsvTable {
   void require_increasing(std::string_view column) const;
 
  private:
+  static CsvTable parse_owned(std::string text, const std::string& name);
   std::size_t index_of(std::string_view column) const;
+  std::string_view cell(std::size_t row, std::size_t col) const { return cells_[row * columns_.size() + col]; }
 
   std::string path_;
+  std::shared_ptr<const std::string> text_;  // owned apart: moving the table keeps the views valid
   std::vector<std::string> columns_;
-  std::vector<std::vector<std::string>> cells_;
-  std::vector<std::size_t> lines_;
+  std::vector<std::string_view> cells_;  // row-major, into *text_
+  std::vector<std::uint32_t> lines_;     // 1-based file line of each data row
 };
 
 }  // namespace gyrotc::app
