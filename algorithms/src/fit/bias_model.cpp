@@ -110,11 +110,16 @@ double evaluate(const BpNetwork& net, double temp_c) noexcept {
   for (std::size_t l = 0; l < net.layers.size(); ++l) {
     const NetworkLayer& layer = net.layers[l];
     const double* w = layer.weights.data();
-    for (int o = 0; o < layer.outputs; ++o) {
-      double s = layer.biases[static_cast<std::size_t>(o)];
-      for (int i = 0; i < layer.inputs; ++i) s += w[i] * in[i];
-      w += layer.inputs;
-      out[o] = l == last ? s : std::tanh(s);
+    for (int o = 0; o < layer.outputs; ++o) out[o] = layer.biases[static_cast<std::size_t>(o)];
+    // Input-major: the outputs' sums are independent chains the CPU overlaps
+    // (output-major, each sum waits on its previous add). Each output still
+    // adds its terms in input order, so the result is the same to the bit.
+    for (int i = 0; i < layer.inputs; ++i) {
+      const double x = in[i];
+      for (int o = 0; o < layer.outputs; ++o) out[o] += w[o * layer.inputs + i] * x;
+    }
+    if (l != last) {
+      for (int o = 0; o < layer.outputs; ++o) out[o] = tansig(out[o]);
     }
     std::swap(in, out);
   }

@@ -84,7 +84,7 @@ class Net {
       for (int o = 0; o < out; ++o) {
         double s = theta(p + in * out + o);
         for (int i = 0; i < in; ++i) s += theta(p + o * in + i) * act_[l][static_cast<std::size_t>(i)];
-        act_[l + 1][static_cast<std::size_t>(o)] = output ? s : std::tanh(s);
+        act_[l + 1][static_cast<std::size_t>(o)] = output ? s : tansig(s);
       }
       p += (in + 1) * out;
     }

@@ -1,3 +1,4 @@
+#include <algorithm>
 #include <cmath>
 #include <vector>
 
@@ -20,6 +21,15 @@ BpTrainOptions small_network(std::uint64_t seed) {
   return o;
 }
 }  // namespace
+
+TEST_CASE("tansig equals tanh to 4e-16 and saturates to +-1 without overflow") {
+  double worst = 0.0;
+  for (double n = -25.0; n <= 25.0; n += 1e-3) worst = std::max(worst, std::fabs(tansig(n) - std::tanh(n)));
+  CHECK(worst <= 4e-16);
+  CHECK(tansig(0.0) == 0.0);
+  CHECK(tansig(-1e300) == -1.0);
+  CHECK(tansig(1e300) == 1.0);
+}
 
 TEST_CASE("BP training is deterministic for a seed") {
   const auto table = gyrotc::test::read_table2();

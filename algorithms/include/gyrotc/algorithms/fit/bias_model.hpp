@@ -1,5 +1,6 @@
 #pragma once
 
+#include <cmath>
 #include <cstddef>
 #include <string_view>
 #include <variant>
@@ -54,6 +55,12 @@ struct BpNetwork {
   // Widest hidden layer inference supports (it runs on a stack buffer).
   static constexpr int kMaxWidth = 64;
 };
+
+// The hidden layers' activation, MATLAB's tansig as the seed used it:
+// 2 / (1 + exp(-2 n)) - 1. It equals tanh(n) to within 4e-16 and costs less
+// than half of glibc's tanh, which dominated inference. Training and inference
+// both use it, so a network evaluates exactly as it was trained.
+inline double tansig(double n) noexcept { return 2.0 / (1.0 + std::exp(-2.0 * n)) - 1.0; }
 
 // Evaluates the network at temp_c (no clamping), no allocation.
 double evaluate(const BpNetwork& net, double temp_c) noexcept;
