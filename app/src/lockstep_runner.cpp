@@ -77,11 +77,27 @@ void LockstepRunner::handle_events(double now) {
   }
   if (now >= next_conversion_s_) {
     // The lockstep DS18B20 returns the temperature of this instant; the
-    // conversion time passes before the controller sees it.
-    casing_in_flight_ = devices_.casing_sensor.read();
-    if (devices_.ambient_sensor != nullptr) ambient_in_flight_ = devices_.ambient_sensor->read();
-    delivery_s_ = now + options_.conversion_s;
-    while (next_conversion_s_ <= now) next_conversion_s_ += options_.sensor_period_s;
+    // conversion time passes before the controller sees it. The sensor cycle
+    // keeps the schedule of ambient_conversion_due, as the real-time runner
+    // does: on its turn the ambient converts first and the casing after it.
+    const double scheduled_s = next_conversion_s_;
+    if (devices_.ambient_sensor != nullptr && ambient_conversion_due(conversions_) && !ambient_converted_) {
+      ambient_in_flight_ = devices_.ambient_sensor->read();
+      ++counters_.ambient_readings;
+      ambient_converted_ = true;
+      cycle_start_s_ = scheduled_s;
+      next_conversion_s_ = scheduled_s + options_.conversion_s;
+    } else {
+      casing_in_flight_ = devices_.casing_sensor.read();
+      delivery_s_ = now + options_.conversion_s;
+      if (!ambient_converted_) cycle_start_s_ = scheduled_s;
+      ambient_converted_ = false;
+      ++conversions_;
+      // The next cycle starts a period after this one, or when this one ends
+      // if it overran (the ambient's turn): no catching up in a burst.
+      next_conversion_s_ = std::max(cycle_start_s_ + options_.sensor_period_s, delivery_s_);
+      while (next_conversion_s_ <= now) next_conversion_s_ += options_.sensor_period_s;
+    }
   }
   if (now >= next_pid_s_) {
     const TecCommand command = run_pid_tick(controller_, devices_.tec, now);
@@ -251,7 +267,9 @@ SimulationResult run_simulation(const SimulationSetup& setup, const model::Chamb
   options.thermal_step_s = plant.max_thermal_step_s;
   options.adc.fclk_hz = setup.sample_rate_hz * hal::Ads1251::kClocksPerSample;
   options.tec_current_limit_a = plant.current_limit_a;
-  options.ambient_sensor = true;
+  // An ambient DS18B20 only for a controller that uses it (the seed's board had
+  // none): on the shared bus it costs the casing sensor a slot every 10 s.
+  options.ambient_sensor = setup.controller.feed_forward_a_per_c > 0.0;
   hal::SimBoard board(plant, setup.seed, options);
   if (profile.start_s() > 0.0) board.advance_to(profile.start_s());
 

@@ -1,5 +1,6 @@
 #include "gyrotc/app/daemon/realtime_runner.hpp"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <limits>
@@ -10,7 +11,6 @@ namespace gyrotc::app {
 namespace {
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
-constexpr std::uint64_t kAmbientEvery = 10;
 
 }  // namespace
 
@@ -151,18 +151,17 @@ void RealtimeRunner::sensor_loop() {
   auto next = clock::now();
   hal::TemperatureReading ambient;
   for (std::uint64_t cycle = 0; !threads_stop_.load(std::memory_order_relaxed); ++cycle) {
+    // The schedule of ambient_conversion_due (the lockstep runner keeps it too).
+    if (board_.ambient_sensor != nullptr && ambient_conversion_due(cycle)) ambient = board_.ambient_sensor->read();
     const hal::TemperatureReading casing = board_.casing_sensor.read();  // blocks for the conversion
-    // The ambient sensor on every kAmbientEvery-th cycle only: each read is
-    // another 750 ms conversion, and the casing reading (the PID's input)
-    // must keep its period. A chamber moves ~1 C/min: 0.2 C in 10 s.
-    if (board_.ambient_sensor != nullptr && cycle % kAmbientEvery == 0) ambient = board_.ambient_sensor->read();
     publish_readings(casing, ambient);
-    next += period;
+    // A cycle that overran its period (the ambient conversion, a slow bus)
+    // restarts the schedule from now rather than catching up in a burst.
+    next = std::max(next + period, clock::now());
     // Sleep in short slices so a stop is seen promptly.
     while (!threads_stop_.load(std::memory_order_relaxed) && clock::now() < next) {
       std::this_thread::sleep_for(std::chrono::milliseconds(20));
     }
-    if (clock::now() > next + period) next = clock::now();  // a slow read: do not catch up in a burst
   }
 }
 

@@ -43,6 +43,19 @@ TEST_CASE("lockstep runs are deterministic for a seed") {
   CHECK(differs);
 }
 
+TEST_CASE("the ambient sensor converts before every 10th casing conversion, which makes that sensor cycle 1.5 s") {
+  SimulationSetup setup;
+  setup.controller = controller_preset(ControllerMode::tuned, setup.plant);
+  setup.calibration = &calibration();
+  setup.sample_rate_hz = 50.0;
+  const gyrotc::model::ChamberProfile profile({{"hold", 0.0, 1000.0, 16.0, 16.0}});
+  const auto r = run_simulation(setup, profile);
+  // Ten casing conversions every 10.5 s: nine 1 s cycles and one of 1.5 s
+  // (750 ms ambient + 750 ms casing), the schedule the real-time runner keeps.
+  CHECK(r.counters.readings == Approx(1000.0 / 1.05).margin(3.0));
+  CHECK(r.counters.ambient_readings * kAmbientEveryReadings == Approx(r.counters.readings).margin(10.0));
+}
+
 TEST_CASE("with the controller off the TEC stays off and the casing follows the ambient") {
   const auto r = short_run(1, ControllerMode::off);
   for (const auto& row : r.rows) {

@@ -194,4 +194,16 @@ SampleResult run_sample_tick(Controller& controller, hal::RateDac& rate_dac, con
 void run_adc_timeout_tick(Controller& controller, hal::RateDac& rate_dac, double now_s,
                           RowAccumulator& row) noexcept;
 
+// The DS18B20 schedule both runners keep. The casing and the ambient sensor
+// share one 1-Wire bus and convert one after the other (750 ms each), and the
+// casing reading is the PID's input, so the ambient converts only before every
+// kAmbientEveryReadings-th casing conversion, the first one included: that
+// sensor cycle takes 1.5 s instead of 1 s, and its casing reading goes out as
+// soon as it is converted, with the fresh ambient reading. A chamber ramps
+// ~1 C/min: 0.2 C between ambient readings.
+inline constexpr std::uint64_t kAmbientEveryReadings = 10;
+inline bool ambient_conversion_due(std::uint64_t casing_conversion) noexcept {
+  return casing_conversion % kAmbientEveryReadings == 0;
+}
+
 }  // namespace gyrotc::app

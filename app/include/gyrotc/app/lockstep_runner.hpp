@@ -21,8 +21,9 @@
 //    the compensated rate to the rate DAC (or on_adc_timeout);
 //  - every ambient_update_s: the chamber profile's ambient to the board;
 //  - every sensor_period_s: a DS18B20 conversion starts (the reading reflects
-//    that instant) and is delivered conversion_s later (on_temperature; the
-//    ambient sensor's too, when the board has one);
+//    that instant) and is delivered conversion_s later (on_temperature, with
+//    on_ambient_temperature when the board has an ambient sensor, which
+//    converts on the schedule of ambient_conversion_due);
 //  - every PID period: the OPA548 thermal flag, Controller::on_pid_tick, and
 //    the command applied (set_current_a + enable, or safe_off);
 //  - every record_period_s: one RecordRow (temperatures and TEC now; gyro and
@@ -56,7 +57,8 @@ struct RunCounters {
   std::uint64_t samples = 0;
   std::uint64_t adc_timeouts = 0;
   std::uint64_t pid_ticks = 0;
-  std::uint64_t readings = 0;
+  std::uint64_t readings = 0;          // casing readings delivered
+  std::uint64_t ambient_readings = 0;  // ambient conversions (ambient_conversion_due)
 };
 
 class LockstepRunner {
@@ -107,7 +109,10 @@ class LockstepRunner {
   double next_conversion_s_ = 0.0;
   double delivery_s_ = -1.0;  // < 0: no conversion in flight
   hal::TemperatureReading casing_in_flight_;
-  hal::TemperatureReading ambient_in_flight_;
+  hal::TemperatureReading ambient_in_flight_;  // goes out with casing_in_flight_
+  std::uint64_t conversions_ = 0;              // casing conversions started
+  bool ambient_converted_ = false;             // this cycle's ambient is done, the casing's is next
+  double cycle_start_s_ = 0.0;
   double next_pid_s_ = 0.0;
   double next_record_s_ = 0.0;
 
