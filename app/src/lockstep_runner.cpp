@@ -85,17 +85,16 @@ void LockstepRunner::handle_events(double now) {
       ambient_in_flight_ = devices_.ambient_sensor->read();
       ++counters_.ambient_readings;
       ambient_converted_ = true;
-      cycle_start_s_ = scheduled_s;
       next_conversion_s_ = scheduled_s + options_.conversion_s;
     } else {
       casing_in_flight_ = devices_.casing_sensor.read();
       delivery_s_ = now + options_.conversion_s;
-      if (!ambient_converted_) cycle_start_s_ = scheduled_s;
+      const double cycle_start_s = ambient_converted_ ? scheduled_s - options_.conversion_s : scheduled_s;
       ambient_converted_ = false;
       ++conversions_;
       // The next cycle starts a period after this one, or when this one ends
       // if it overran (the ambient's turn): no catching up in a burst.
-      next_conversion_s_ = std::max(cycle_start_s_ + options_.sensor_period_s, delivery_s_);
+      next_conversion_s_ = std::max(cycle_start_s + options_.sensor_period_s, delivery_s_);
       while (next_conversion_s_ <= now) next_conversion_s_ += options_.sensor_period_s;
     }
   }

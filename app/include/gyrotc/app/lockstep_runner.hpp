@@ -112,7 +112,6 @@ class LockstepRunner {
   hal::TemperatureReading ambient_in_flight_;  // goes out with casing_in_flight_
   std::uint64_t conversions_ = 0;              // casing conversions started
   bool ambient_converted_ = false;             // this cycle's ambient is done, the casing's is next
-  double cycle_start_s_ = 0.0;
   double next_pid_s_ = 0.0;
   double next_record_s_ = 0.0;
 
