@@ -103,4 +103,19 @@ Result<double> GpiodLine::do_wait_edge(Edge edge, double timeout_s) noexcept {
   }
 }
 
+Result<int> GpiodLine::do_discard_edges() noexcept {
+  if (mode_ != GpioMode::edge_events) return 0;
+  int dropped = 0;
+  for (;;) {
+    timespec zero{};
+    const int rc = gpiod_line_event_wait(line_, &zero);
+    if (rc < 0) return Error::from_errno(errno, "cannot poll the edges of GPIO", name_);
+    if (rc == 0) return dropped;
+    gpiod_line_event events[16];
+    const int got = gpiod_line_event_read_multiple(line_, events, 16);
+    if (got < 0) return Error::from_errno(errno, "cannot read the edges of GPIO", name_);
+    dropped += got;
+  }
+}
+
 }  // namespace gyrotc::hal

@@ -43,6 +43,7 @@ class GpiodLine final : public GpioLine {
   Status do_set(bool high) noexcept override;
   Result<bool> do_get() noexcept override;
   Result<double> do_wait_edge(Edge edge, double timeout_s) noexcept override;
+  Result<int> do_discard_edges() noexcept override;
   std::string_view do_name() const noexcept override { return name_; }
 
   std::string name_;
