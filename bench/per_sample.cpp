@@ -178,7 +178,7 @@ void BM_Compensate(benchmark::State& state) {
   std::size_t i = 0;
   const PerSample timer;
   for (auto _ : state) {
-    const auto c = comp.compensate(1.0 + static_cast<double>(i & 7u), temps[i & 255u]);
+    auto c = comp.compensate(1.0 + static_cast<double>(i & 7u), temps[i & 255u]);
     ++i;
     benchmark::DoNotOptimize(c);
   }
@@ -276,7 +276,7 @@ void BM_SamplePath(benchmark::State& state) {
     }
     const auto sample = rate_adc.read(1.0);
     if (sample) {
-      const auto r = gyrotc::app::run_sample_tick(controller, rate_dac, *sample, now_s, row);
+      auto r = gyrotc::app::run_sample_tick(controller, rate_dac, *sample, now_s, row);
       benchmark::DoNotOptimize(r);
     } else {
       gyrotc::app::run_adc_timeout_tick(controller, rate_dac, now_s, row);
@@ -303,7 +303,7 @@ void BM_SamplePathSimBoard(benchmark::State& state) {
   for (auto _ : state) {
     const auto sample = board.adc.read(3e-3);
     if (sample) {
-      const auto r = gyrotc::app::run_sample_tick(controller, board.rate_dac, *sample, sample->time_s, row);
+      auto r = gyrotc::app::run_sample_tick(controller, board.rate_dac, *sample, sample->time_s, row);
       benchmark::DoNotOptimize(r);
     } else {
       gyrotc::app::run_adc_timeout_tick(controller, board.rate_dac, board.clock.now_s(), row);

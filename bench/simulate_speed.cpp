@@ -18,7 +18,7 @@ void BM_SimulateFig26(benchmark::State& state) {
   setup.sample_rate_hz = static_cast<double>(state.range(0));
   double simulated_s = 0.0;
   for (auto _ : state) {
-    const auto result = gyrotc::app::run_simulation(setup, profile);
+    auto result = gyrotc::app::run_simulation(setup, profile);
     simulated_s += result.summary.simulated_s;
     benchmark::DoNotOptimize(result.summary.settle_s);
   }

@@ -13,10 +13,15 @@ if(GYROTC_SANITIZE)
   target_link_options(gyrotc_options INTERFACE -fsanitize=address,undefined)
 endif()
 
-# gyrotc_add_layer_library(<target> <folder>): a static library of every .cpp
-# under <folder>/src with public headers in <folder>/include.
+# gyrotc_add_layer_library(<target> <folder> [EXCLUDE <regex>]): a static
+# library of every .cpp under <folder>/src (but those matching <regex>) with
+# public headers in <folder>/include.
 function(gyrotc_add_layer_library target folder)
+  cmake_parse_arguments(PARSE_ARGV 2 _arg "" "EXCLUDE" "")
   file(GLOB_RECURSE _sources CONFIGURE_DEPENDS "${folder}/src/*.cpp")
+  if(_arg_EXCLUDE)
+    list(FILTER _sources EXCLUDE REGEX "${_arg_EXCLUDE}")
+  endif()
   add_library(${target} STATIC ${_sources})
   target_include_directories(${target} PUBLIC
     $<BUILD_INTERFACE:${folder}/include>)

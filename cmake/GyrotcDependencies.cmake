@@ -29,15 +29,19 @@ pkg_check_modules(GPIOD QUIET IMPORTED_TARGET libgpiod)
 if(NOT GPIOD_FOUND)
   gyrotc_missing("libgpiod" "libgpiod-dev${_gyrotc_pkg_arch}")
 endif()
-if(GPIOD_VERSION VERSION_GREATER_EQUAL 2.0)
-  message(FATAL_ERROR
-    "gyrotc: libgpiod ${GPIOD_VERSION} found, but gyrotc uses the libgpiod 1.6 API "
-    "(Debian bookworm, Yocto kirkstone..styhead with PREFERRED_VERSION_libgpiod = \"1.6%\"). "
-    "libgpiod 2.x is not supported yet.")
-endif()
+# Both libgpiod APIs are supported (hal/src/linux/gpiod_line_v1.cpp, _v2.cpp):
+# 1.6 on Debian 12 and Yocto with PREFERRED_VERSION_libgpiod = "1.6%", 2.x on
+# Debian 13 / Raspberry Pi OS and meta-oe's default from scarthgap on.
 if(GPIOD_VERSION VERSION_LESS 1.6)
-  message(FATAL_ERROR "gyrotc: libgpiod ${GPIOD_VERSION} is too old; 1.6 or later 1.x is required.")
+  message(FATAL_ERROR "gyrotc: libgpiod ${GPIOD_VERSION} is too old; 1.6 or later is required.")
+elseif(GPIOD_VERSION VERSION_LESS 2.0)
+  set(GYROTC_GPIOD_API 1)
+elseif(GPIOD_VERSION VERSION_LESS 3.0)
+  set(GYROTC_GPIOD_API 2)
+else()
+  message(FATAL_ERROR "gyrotc: libgpiod ${GPIOD_VERSION} found; gyrotc knows the 1.6 and 2.x APIs.")
 endif()
+message(STATUS "gyrotc: libgpiod ${GPIOD_VERSION} (API v${GYROTC_GPIOD_API})")
 
 find_package(CLI11 QUIET CONFIG)
 if(NOT TARGET CLI11::CLI11)

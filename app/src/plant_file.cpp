@@ -77,9 +77,9 @@ void reject_unknown(const std::string& file, const std::string& prefix, const to
   }
 }
 
-const toml::table& as_table(const std::string& file, const std::string& key, const toml::node& node) {
+const toml::table& as_table(const std::string& file, std::string_view key, const toml::node& node) {
   if (const toml::table* t = node.as_table()) return *t;
-  throw InputError(where(file, node) + ": '" + key + "' must be a table");
+  throw InputError(where(file, node) + ": '" + std::string(key) + "' must be a table");
 }
 
 // Reads the parameters of one effect table into an effect struct.

@@ -1,5 +1,7 @@
 #include "gyrotc/hal/chips/ad5060.hpp"
 
+#include <cmath>
+
 #include "gyrotc/hal/sim/sim_ad5060.hpp"
 #include "gyrotc_catch.hpp"
 
