@@ -67,10 +67,18 @@ find_package(Threads REQUIRED)
 option(GYROTC_SYSTEMD_NOTIFY "Send sd_notify messages (READY, WATCHDOG, STOPPING) to \$NOTIFY_SOCKET" ON)
 
 if(GYROTC_BUILD_TESTS)
-  # Catch2 v2 is what Debian bookworm ships; v3 is accepted where found.
+  # Catch2 2 (Debian 12, header-only) or 3 (Debian 13, Yocto walnascar).
   find_package(Catch2 QUIET)
   if(NOT Catch2_FOUND)
-    gyrotc_missing("Catch2 (GYROTC_BUILD_TESTS=ON)" "catch2")
+    gyrotc_missing("Catch2 (GYROTC_BUILD_TESTS=ON)" "catch2 (Debian 12) or libcatch2-dev (Debian 13)")
+  endif()
+  # Catch2 3 is a compiled library: a cross build must not link the build
+  # machine's (Debian installs it at /usr/lib, for one architecture only).
+  if(CMAKE_CROSSCOMPILING AND Catch2_VERSION VERSION_GREATER_EQUAL 3 AND Catch2_DIR MATCHES "^/usr/lib/cmake")
+    message(FATAL_ERROR
+      "gyrotc: found Catch2 ${Catch2_VERSION} of the build machine (${Catch2_DIR}), which a "
+      "${CMAKE_SYSTEM_PROCESSOR} build cannot link. Run scripts/deps.sh aarch64 (or armhf): it unpacks "
+      "the target's libcatch2-dev under build/cross-deps/, or pass -DGYROTC_BUILD_TESTS=OFF.")
   endif()
 endif()
 

@@ -1,44 +1,104 @@
 #!/usr/bin/env bash
-# Installs the Debian packages gyrotc needs. Idempotent: apt runs only when
-# something is missing. Usage: scripts/deps.sh [native] [aarch64] [armhf] [bench]
+# Installs the Debian packages gyrotc needs, on Debian 12 (bookworm), Debian 13
+# (trixie) and what is built on them (Raspberry Pi OS). Idempotent: apt runs
+# only when something is missing.
+#
+# Usage: scripts/deps.sh [native] [aarch64] [armhf] [bench] [vm]
+#   native   compiler, CMake, the libraries and test tools (default)
+#   aarch64  cross compiler, qemu-user and the arm64 libraries (adds the dpkg
+#            architecture arm64 if it is missing, and says so first)
+#   armhf    the same for 32-bit ARM hard-float
+#   bench    cyclictest, GNU time and jq for scripts/bench.sh
+#   vm       debootstrap, qemu-system and the kernel tools for scripts/vm-test.sh
+# Runs apt-get directly as root, through sudo otherwise.
 set -euo pipefail
+cd "$(dirname "$0")/.."
 
 want=("$@")
 [ ${#want[@]} -eq 0 ] && want=(native)
 
+say() { echo "deps.sh: $*" >&2; }
+
+# The suite decides a few package names; an unknown one (a derivative) gets
+# the names apt knows.
+codename=$( (. /etc/os-release 2>/dev/null && echo "${VERSION_CODENAME:-}") || true)
+available() { apt-cache show "$1" >/dev/null 2>&1; }
+case "$codename" in
+  bookworm) catch2=catch2 ;;        # Catch2 2.13, header-only
+  trixie) catch2=libcatch2-dev ;;   # Catch2 3.x, a static library
+  *) if available libcatch2-dev; then catch2=libcatch2-dev; else catch2=catch2; fi ;;
+esac
+
 pkgs=()
 need_arch=()
+cross_catch2=()  # target architectures whose Catch2 3 library is unpacked privately (below)
 for w in "${want[@]}"; do
   case "$w" in
     native)
-      pkgs+=(build-essential cmake pkg-config file libeigen3-dev libgpiod-dev catch2 libcli11-dev
+      pkgs+=(build-essential cmake pkg-config file libeigen3-dev libgpiod-dev "$catch2" libcli11-dev
              libtomlplusplus-dev nlohmann-json3-dev libbenchmark-dev
              systemd) ;;  # systemd: systemd-analyze for tests/deploy
-    aarch64)
-      need_arch+=(arm64)
-      pkgs+=(g++-aarch64-linux-gnu qemu-user libgpiod-dev:arm64 libtomlplusplus-dev:arm64
-             libbenchmark-dev:arm64) ;;
-    armhf)
-      need_arch+=(armhf)
-      pkgs+=(g++-arm-linux-gnueabihf qemu-user libgpiod-dev:armhf libtomlplusplus-dev:armhf
-             libbenchmark-dev:armhf) ;;
+    aarch64 | armhf)
+      if [ "$w" = aarch64 ]; then arch=arm64 triple=aarch64-linux-gnu; else arch=armhf triple=arm-linux-gnueabihf; fi
+      need_arch+=("$arch")
+      pkgs+=("g++-$triple" qemu-user "libgpiod-dev:$arch" "libtomlplusplus-dev:$arch" "libbenchmark-dev:$arch")
+      [ "$catch2" = libcatch2-dev ] && cross_catch2+=("$arch") ;;
     bench)
       pkgs+=(rt-tests time jq) ;;  # cyclictest, /usr/bin/time, JSON for scripts/bench.sh
-    *) echo "deps.sh: unknown set '$w' (native, aarch64, armhf, bench)" >&2; exit 2 ;;
+    vm)
+      pkgs+=(debootstrap qemu-system-arm qemu-system-x86 qemu-user-static binfmt-support
+             e2fsprogs cpio zstd xz-utils dpkg-dev kmod) ;;
+    *) say "unknown set '$w' (native, aarch64, armhf, bench, vm)"; exit 2 ;;
   esac
 done
+
+# How to run apt-get and dpkg as root.
+as_root() {
+  if [ "$(id -u)" -eq 0 ]; then
+    "$@"
+  elif command -v sudo >/dev/null 2>&1; then
+    sudo "$@"
+  else
+    say "needs root to install packages: run it as root, or install sudo; or install by hand: ${missing[*]}"
+    exit 1
+  fi
+}
 
 missing=()
 for p in "${pkgs[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
 done
-[ ${#missing[@]} -eq 0 ] && exit 0
-
-SUDO=""
-[ "$(id -u)" -ne 0 ] && SUDO="sudo"
+added_arch=0
 for a in "${need_arch[@]}"; do
-  dpkg --print-foreign-architectures | grep -qx "$a" || $SUDO dpkg --add-architecture "$a"
+  if ! dpkg --print-foreign-architectures | grep -qx "$a" && [ "$(dpkg --print-architecture)" != "$a" ]; then
+    say "adding the dpkg architecture '$a' (dpkg --add-architecture $a) for the cross-build libraries"
+    as_root dpkg --add-architecture "$a"
+    added_arch=1
+  fi
 done
-echo "deps.sh: installing ${missing[*]}" >&2
-$SUDO apt-get update -qq || echo "deps.sh: apt-get update reported errors; trying the install anyway" >&2
-DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
+if [ ${#missing[@]} -gt 0 ] || [ "$added_arch" = 1 ]; then
+  say "installing ${missing[*]:-(package lists only)}"
+  as_root apt-get update -qq || say "apt-get update reported errors; trying the install anyway"
+  if [ ${#missing[@]} -gt 0 ]; then
+    as_root env DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
+  fi
+fi
+
+# Catch2 3 (trixie) is a static library installed at /usr/lib without a
+# multiarch path, so the build machine's and the target's cannot be installed
+# side by side. The target's package is unpacked under build/cross-deps/<arch>,
+# where cmake/toolchains/debian-multiarch-common.cmake finds it.
+for a in "${cross_catch2[@]}"; do
+  version=$(apt-cache policy "libcatch2-dev:$a" | awk '/Candidate:/ {print $2}')
+  dir=build/cross-deps/$a
+  [ -f "$dir/.version" ] && [ "$(cat "$dir/.version")" = "$version" ] && continue
+  say "unpacking libcatch2-dev:$a $version into $dir (the test library of the $a build)"
+  tmp=$(mktemp -d)
+  (cd "$tmp" && apt-get download -qq "libcatch2-dev:$a" 2>/dev/null) ||
+    { say "cannot download libcatch2-dev:$a (apt-get download)"; rm -rf "$tmp"; exit 1; }
+  rm -rf "$dir" && mkdir -p "$dir"
+  dpkg-deb -x "$tmp"/libcatch2-dev_*_"$a".deb "$dir"
+  echo "$version" >"$dir/.version"
+  rm -rf "$tmp"
+done
+exit 0

@@ -17,6 +17,7 @@
 #include "gyrotc/app/csv_table.hpp"
 #include "gyrotc/app/errors.hpp"
 #include "gyrotc/app/svg_plot.hpp"
+#include "gyrotc/app/output_path.hpp"
 
 namespace gyrotc::app {
 namespace {
@@ -91,6 +92,7 @@ void run(const AllanOptions& o) {
   if (!o.plot.empty() && !ends_with(o.plot, ".svg")) {
     throw InputError("--plot " + o.plot + ": only .svg is supported");
   }
+  if (!o.plot.empty()) prepare_output_file(o.plot, "--plot");
   const CsvTable table = CsvTable::read(o.data);
   const std::vector<double> rate = table.numbers(o.column);  // names file/line/column of a bad cell
   if (rate.size() < 2) {

@@ -22,6 +22,7 @@
 #include "gyrotc/app/csv_table.hpp"
 #include "gyrotc/app/errors.hpp"
 #include "gyrotc/app/progress.hpp"
+#include "gyrotc/app/output_path.hpp"
 
 namespace gyrotc::app {
 namespace {
@@ -227,6 +228,7 @@ void print_model_text(const fit::BiasModel& m) {
 }
 
 void run_single(const FitOptions& o) {
+  if (!o.out.empty()) prepare_output_file(o.out, "--out");
   const auto method = fit::parse_method(o.method);
   if (!method) throw InputError("--method: expected poly, piecewise, bpnn, paper or auto, got '" + o.method + "'");
   const Points p = read_points(o);

@@ -22,6 +22,7 @@
 #include "gyrotc/app/plant_file.hpp"
 #include "gyrotc/app/progress.hpp"
 #include "gyrotc/app/svg_plot.hpp"
+#include "gyrotc/app/output_path.hpp"
 
 namespace gyrotc::app {
 namespace {
@@ -227,9 +228,6 @@ plot::Figure identification_figure(const id::Identification& r) {
 void write_report(const id::Identification& r, const IdentifyOptions& o, double elapsed_s) {
   namespace fs = std::filesystem;
   const fs::path dir(o.report_dir);
-  std::error_code ec;
-  fs::create_directories(dir, ec);
-  if (ec) throw RuntimeFailure("cannot create " + dir.string() + ": " + ec.message());
 
   // The curves, for any plotting tool.
   std::ostringstream csv;
@@ -335,6 +333,8 @@ void run_identify(const IdentifyOptions& o) {
   if (!is_static_target(target) && !series) {
     throw InputError(o.data + ": target " + target + " needs a time series (no time_s column)");
   }
+  if (!o.report_dir.empty()) prepare_output_dir(o.report_dir, "--report");
+  if (!o.out_plant.empty()) prepare_output_file(o.out_plant, "--out-plant");
   const auto start = std::chrono::steady_clock::now();
   const id::Identification result = is_static_target(target) ? run_static(table, target)
                                                               : run_series(table, target, o);

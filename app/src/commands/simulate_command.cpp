@@ -24,6 +24,7 @@
 #include "gyrotc/app/plant_file.hpp"
 #include "gyrotc/app/progress.hpp"
 #include "gyrotc/app/svg_plot.hpp"
+#include "gyrotc/app/output_path.hpp"
 
 namespace gyrotc::app {
 namespace {
@@ -224,6 +225,9 @@ void print_text(const nlohmann::json& j, const std::optional<std::string>& csv,
 }
 
 void run(const SimulateOptions& o) {
+  if (!o.out.empty()) prepare_output_dir(o.out, "--out");
+  if (!o.plot.empty()) prepare_output_file(o.plot, "--plot");
+  if (!o.rate_csv.empty()) prepare_output_file(o.rate_csv, "--rate-csv");
   const model::ChamberProfile profile = chamber_profile_by_name(o.profile, data_dir());
   SimulationSetup setup;
   if (!o.plant.empty()) setup.plant = load_plant(o.plant);
@@ -268,9 +272,6 @@ void run(const SimulateOptions& o) {
   }
   nlohmann::json j = summary_json(o, calibration_name, result, wall_s);
   if (!o.out.empty()) {
-    std::error_code ec;
-    std::filesystem::create_directories(o.out, ec);
-    if (ec) throw RuntimeFailure(o.out + ": cannot create the output directory: " + ec.message());
     csv_path = o.out + "/simulation.csv";
     write_records_csv(result.rows, *csv_path);
     std::ofstream summary(o.out + "/summary.json");

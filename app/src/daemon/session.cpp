@@ -19,6 +19,7 @@
 #include "gyrotc/app/daemon/signals.hpp"
 #include "gyrotc/app/daemon/systemd_notify.hpp"
 #include "gyrotc/app/errors.hpp"
+#include "gyrotc/app/output_path.hpp"
 #include "gyrotc/hal/chips/ads1251.hpp"
 
 namespace gyrotc::app {
@@ -83,6 +84,11 @@ void run_session(const SessionOptions& options) {
   Controller controller(config.controller, *compensators.back());
 
   // Output files before any device: a bad path fails without touching the board.
+  if (!options.summary_json.empty()) prepare_output_file(options.summary_json, "--summary-json");
+  if (options.stream && config.output.stream == StreamKind::file) prepare_output_file(config.output.path, "output.path");
+  if (!config.output.record_csv.empty()) {
+    prepare_output_file(config.output.record_csv, options.record_csv.empty() ? "output.record_csv" : "--out");
+  }
   std::unique_ptr<LineSink> stream = options.stream ? open_stream(config.output) : nullptr;
   std::unique_ptr<LineSink> record;
   if (!config.output.record_csv.empty()) {

@@ -1,0 +1,96 @@
+// Output paths are made ready before the work: missing folders are created,
+// places that cannot be written are refused at once, naming the option.
+#include "gyrotc/app/output_path.hpp"
+
+#include <filesystem>
+#include <fstream>
+#include <string>
+
+#include "gyrotc/app/commands.hpp"
+#include "gyrotc/app/errors.hpp"
+#include "gyrotc_catch.hpp"
+#include "run_command.hpp"
+
+using namespace gyrotc::app;
+namespace fs = std::filesystem;
+
+namespace {
+
+// A fresh scratch folder for one test.
+struct Scratch {
+  fs::path dir;
+  explicit Scratch(const std::string& name) : dir(fs::temp_directory_path() / ("gyrotc_output_" + name)) {
+    fs::remove_all(dir);
+    fs::create_directories(dir);
+  }
+  ~Scratch() { fs::remove_all(dir); }
+  Scratch(const Scratch&) = delete;
+  Scratch& operator=(const Scratch&) = delete;
+};
+
+std::string failure_of(void (*prepare)(const std::string&, const std::string&), const std::string& path,
+                       const std::string& option) {
+  try {
+    prepare(path, option);
+  } catch (const RuntimeFailure& e) {
+    return e.what();
+  }
+  return "";
+}
+
+}  // namespace
+
+TEST_CASE("a file's missing parent folders are created") {
+  Scratch s("parents");
+  const fs::path file = s.dir / "a" / "b" / "plot.svg";
+  prepare_output_file(file.string(), "--plot");
+  CHECK(fs::is_directory(file.parent_path()));
+  CHECK_FALSE(fs::exists(file));  // nothing is written before the work
+}
+
+TEST_CASE("a file in the current folder needs no folder") {
+  CHECK_NOTHROW(prepare_output_file("gyrotc_output_plain.csv", "--out"));
+}
+
+TEST_CASE("a file whose parent is a file is refused, naming the option and the path") {
+  Scratch s("parent_file");
+  std::ofstream(s.dir / "f") << "x";
+  const std::string path = (s.dir / "f" / "x.svg").string();
+  const std::string why = failure_of(prepare_output_file, path, "--plot");
+  CHECK(why.find("--plot " + path + ": cannot create the folder") == 0);
+  CHECK(why.find("Not a directory") != std::string::npos);
+}
+
+TEST_CASE("a file name that is a folder is refused") {
+  Scratch s("is_dir");
+  CHECK(failure_of(prepare_output_file, s.dir.string(), "--out") == "--out " + s.dir.string() + ": is a folder, not a file");
+}
+
+TEST_CASE("an output folder is created with its parents") {
+  Scratch s("dir");
+  const fs::path dir = s.dir / "x" / "y";
+  prepare_output_dir(dir.string(), "--report");
+  CHECK(fs::is_directory(dir));
+}
+
+TEST_CASE("an output folder that exists as a file is refused") {
+  Scratch s("dir_file");
+  std::ofstream(s.dir / "f") << "x";
+  const std::string path = (s.dir / "f").string();
+  CHECK(failure_of(prepare_output_dir, path, "--out") == "--out " + path + ": exists and is not a folder");
+}
+
+TEST_CASE("a folder the system will not create is refused before any work") {
+  CHECK(failure_of(prepare_output_dir, "/proc/gyrotc-no/such", "--out").find("--out /proc/gyrotc-no/such: cannot create") == 0);
+}
+
+TEST_CASE("simulate writes its time series, summary and plot into a folder that did not exist") {
+  Scratch s("simulate");
+  const fs::path out = s.dir / "new" / "run";
+  gyrotc::test::run_command(add_simulate_command, "simulate",
+                            {"--profile", "table2", "--controller", "off", "--sample-rate-hz", "5", "--out",
+                             out.string(), "--plot", (out / "run.svg").string()});
+  CHECK(fs::exists(out / "simulation.csv"));
+  CHECK(fs::exists(out / "summary.json"));
+  CHECK(fs::exists(out / "run.svg"));
+}
