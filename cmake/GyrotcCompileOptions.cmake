@@ -5,7 +5,10 @@ add_library(gyrotc_options INTERFACE)
 add_library(gyrotc::options ALIAS gyrotc_options)
 target_compile_options(gyrotc_options INTERFACE
   -Wall -Wextra -Wpedantic -Wconversion -Wshadow
-  $<$<BOOL:${GYROTC_WERROR}>:-Werror>)
+  $<$<BOOL:${GYROTC_WERROR}>:-Werror>
+  # __FILE__ (assertions, Catch2's test locations) relative to the source tree:
+  # no build machine path in what is installed (Yocto's buildpaths QA check).
+  -fmacro-prefix-map=${CMAKE_SOURCE_DIR}/=)
 
 if(GYROTC_SANITIZE)
   target_compile_options(gyrotc_options INTERFACE

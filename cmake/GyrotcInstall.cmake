@@ -8,7 +8,7 @@
 #   /usr/lib/systemd/system/gyrotc.service, /usr/lib/sysusers.d/gyrotc.conf
 #   /usr/lib/udev/rules.d/60-gyrotc.rules
 #   /usr/share/gyrotc/                 the seed's tables and chamber profile (data/)
-#   /usr/share/doc/gyrotc/             README.md, docs/*.md
+#   /usr/share/doc/gyrotc/             README.md, docs/*.md, LICENSE, copyright (Debian's format)
 # The configuration is per unit (wiring, calibration), so it lives in /etc as conffiles;
 # the binary itself comes from app/CMakeLists.txt.
 
@@ -49,7 +49,8 @@ file(GLOB _gyrotc_data CONFIGURE_DEPENDS
   ${CMAKE_CURRENT_SOURCE_DIR}/data/README.md)
 install(FILES ${_gyrotc_data} DESTINATION ${CMAKE_INSTALL_DATADIR}/gyrotc)
 file(GLOB _gyrotc_docs CONFIGURE_DEPENDS ${CMAKE_CURRENT_SOURCE_DIR}/docs/*.md)
-install(FILES ${CMAKE_CURRENT_SOURCE_DIR}/README.md ${_gyrotc_docs} DESTINATION ${CMAKE_INSTALL_DOCDIR})
+install(FILES ${CMAKE_CURRENT_SOURCE_DIR}/README.md ${_gyrotc_docs} ${CMAKE_CURRENT_SOURCE_DIR}/LICENSE
+  ${_gyrotc_deploy}/debian/copyright DESTINATION ${CMAKE_INSTALL_DOCDIR})
 
 # --- DEB (cpack -G DEB from a build configured with -DCMAKE_INSTALL_PREFIX=/usr) ---
 set(CPACK_GENERATOR DEB)

@@ -10,6 +10,7 @@
 #   armhf    the same for 32-bit ARM hard-float
 #   bench    cyclictest, GNU time and jq for scripts/bench.sh
 #   vm       debootstrap, qemu-system and the kernel tools for scripts/vm-test.sh
+#   yocto    OE's host tools and the en_US.UTF-8 locale for deploy/yocto/check-layer.sh
 # Runs apt-get directly as root, through sudo otherwise.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -31,6 +32,7 @@ esac
 
 pkgs=()
 need_arch=()
+need_locale=0
 cross_catch2=()  # target architectures whose Catch2 3 library is unpacked privately (below)
 for w in "${want[@]}"; do
   case "$w" in
@@ -48,7 +50,11 @@ for w in "${want[@]}"; do
     vm)
       pkgs+=(debootstrap qemu-system-arm qemu-system-x86 qemu-user-static binfmt-support
              e2fsprogs cpio zstd xz-utils dpkg-dev kmod) ;;
-    *) say "unknown set '$w' (native, aarch64, armhf, bench, vm)"; exit 2 ;;
+    yocto)
+      pkgs+=(build-essential python3 git gawk wget diffstat chrpath cpio file lz4 zstd rpcsvc-proto
+             patch bzip2 locales hostname)
+      need_locale=1 ;;
+    *) say "unknown set '$w' (native, aarch64, armhf, bench, vm, yocto)"; exit 2 ;;
   esac
 done
 
@@ -82,6 +88,13 @@ if [ ${#missing[@]} -gt 0 ] || [ "$added_arch" = 1 ]; then
   if [ ${#missing[@]} -gt 0 ]; then
     as_root env DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
   fi
+fi
+
+# bitbake's sanity check wants the en_US.UTF-8 locale.
+if [ "$need_locale" = 1 ] && ! locale -a 2>/dev/null | grep -qix 'en_US.utf-\?8'; then
+  say "generating the en_US.UTF-8 locale (bitbake's sanity check needs it)"
+  as_root sed -i 's/^# *\(en_US.UTF-8 UTF-8\)/\1/' /etc/locale.gen
+  as_root locale-gen >/dev/null
 fi
 
 # Catch2 3 (trixie) is a static library installed at /usr/lib without a

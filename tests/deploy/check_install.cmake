@@ -2,13 +2,7 @@
 # (cmake/GyrotcInstall.cmake) and that the installed unit names the installed paths.
 cmake_minimum_required(VERSION 3.22)
 
-function(rel_or_abs out dir)  # install DESTINATION semantics: relative = under PREFIX
-  if(IS_ABSOLUTE "${dir}")
-    set(${out} "${dir}" PARENT_SCOPE)
-  else()
-    set(${out} "${PREFIX}/${dir}" PARENT_SCOPE)
-  endif()
-endfunction()
+include(${CMAKE_CURRENT_LIST_DIR}/install_paths.cmake)
 rel_or_abs(unitdir "${UNITDIR}")
 rel_or_abs(udevdir "${UDEVDIR}")
 rel_or_abs(sysusersdir "${SYSUSERSDIR}")
@@ -33,7 +27,9 @@ set(expected
   "${DATADIR}/gyrotc/fig26_chamber_profile.csv"
   "${DATADIR}/gyrotc/README.md"
   "${DOCDIR}/README.md"
-  "${DOCDIR}/BOARD-rpi4.md")
+  "${DOCDIR}/BOARD-rpi4.md"
+  "${DOCDIR}/LICENSE"
+  "${DOCDIR}/copyright")
 set(missing "")
 foreach(f IN LISTS expected)
   if(NOT EXISTS "${STAGE}${f}")
@@ -50,6 +46,7 @@ endif()
 file(READ "${STAGE}${unitdir}/gyrotc.service" unit)
 foreach(line
     "ExecStart=${BINDIR}/gyrotc run --config ${SYSCONFDIR}/gyrotc/gyrotc.toml"
+    "ExecReload=/bin/kill -HUP $MAINPID"
     "ExecStopPost=${BINDIR}/gyrotc safe-off --config ${SYSCONFDIR}/gyrotc/gyrotc.toml")
   string(FIND "${unit}" "${line}\n" at)
   if(at EQUAL -1)

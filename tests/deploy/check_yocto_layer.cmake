@@ -1,10 +1,13 @@
 # The Yocto layer against this CMake project (no bitbake needed):
-#  - layer.conf names its collection consistently and is compatible with scarthgap and styhead;
+#  - layer.conf names its collection consistently and is compatible with scarthgap, styhead
+#    and walnascar;
 #  - every third-party library cmake/GyrotcDependencies.cmake looks for is a recipe in the
 #    gyrotc recipe's DEPENDS or in the PACKAGECONFIG that turns the feature on (or is
 #    switched off by the recipe);
 #  - every GYROTC_* CMake variable the recipe sets exists in the project;
-#  - SYSTEMD_SERVICE, run-ptest and the tomlplusplus fallback recipe are there.
+#  - SYSTEMD_SERVICE, run-ptest and the tomlplusplus fallback recipe are there, the fallback
+#    steps aside (DEFAULT_PREFERENCE = "-1"), LIC_FILES_CHKSUM is the md5 of LICENSE.
+# deploy/yocto/check-layer.sh parses the layer with a real bitbake.
 cmake_minimum_required(VERSION 3.22)
 
 set(layer "${SOURCE_DIR}/deploy/yocto/meta-gyrotc")
@@ -46,7 +49,7 @@ foreach(var BBFILE_PATTERN BBFILE_PRIORITY LAYERSERIES_COMPAT LAYERDEPENDS)
 endforeach()
 bb_value(compat "${conf}" "LAYERSERIES_COMPAT_${collection}")
 string(REPLACE " " ";" compat "${compat}")
-foreach(series scarthgap styhead)
+foreach(series scarthgap styhead walnascar)
   if(NOT series IN_LIST compat)
     fail("layer.conf: LAYERSERIES_COMPAT_${collection} lacks ${series}")
   endif()
@@ -120,7 +123,8 @@ if(NOT bb MATCHES "(^|\n)inherit [^\n]*pkgconfig")
 endif()
 
 # Every GYROTC_* variable the recipe sets is an option or cache variable of the project.
-file(GLOB cmake_sources "${SOURCE_DIR}/CMakeLists.txt" "${SOURCE_DIR}/cmake/*.cmake")
+file(GLOB cmake_sources "${SOURCE_DIR}/CMakeLists.txt" "${SOURCE_DIR}/cmake/*.cmake"
+     "${SOURCE_DIR}/tests/CMakeLists.txt")
 set(project_vars "")
 foreach(src IN LISTS cmake_sources)
   file(READ "${src}" text)
@@ -149,10 +153,18 @@ string(STRIP "${service}" service)
 if(service STREQUAL "" OR NOT EXISTS "${SOURCE_DIR}/deploy/systemd/${service}")
   fail("SYSTEMD_SERVICE:\${PN} = '${service}' is not a unit in deploy/systemd")
 endif()
-if(NOT EXISTS "${layer}/recipes-gyrotc/gyrotc/files/run-ptest")
-  fail("recipes-gyrotc/gyrotc/files/run-ptest is missing")
+if(NOT EXISTS "${SOURCE_DIR}/deploy/ptest/run-ptest")
+  fail("deploy/ptest/run-ptest (the ptest component's runner) is missing")
 endif()
-foreach(class cmake systemd useradd ptest)
+if(NOT bb MATCHES "cmake --install \\\${B} --component ptest")
+  fail("do_install_ptest does not install the CMake project's ptest component")
+endif()
+file(MD5 "${SOURCE_DIR}/LICENSE" license_md5)
+bb_value(lic_chksum "${bb}" "LIC_FILES_CHKSUM")
+if(NOT lic_chksum STREQUAL "file://LICENSE;md5=${license_md5}")
+  fail("LIC_FILES_CHKSUM = '${lic_chksum}', but LICENSE's md5 is ${license_md5}")
+endif()
+foreach(class cmake systemd useradd ptest features_check)
   if(NOT bb MATCHES "(^|\n)inherit [^\n]*${class}")
     fail("the recipe does not inherit ${class}")
   endif()
@@ -161,6 +173,12 @@ if("tomlplusplus" IN_LIST available)
   file(GLOB toml_recipe "${layer}/recipes-*/tomlplusplus/tomlplusplus_*.bb")
   if(NOT toml_recipe)
     fail("tomlplusplus is a dependency but the layer has no fallback recipe for scarthgap/styhead")
+  else()
+    read_bb(toml "${toml_recipe}")
+    bb_value(preference "${toml}" "DEFAULT_PREFERENCE")
+    if(NOT preference STREQUAL "-1")
+      fail("the tomlplusplus fallback must step aside for meta-oe's recipe: DEFAULT_PREFERENCE = \"-1\"")
+    endif()
   endif()
 endif()
 

@@ -9,7 +9,9 @@
 #include <toml++/toml.h>
 
 #include "gyrotc/app/board_config.hpp"
+#include "gyrotc/app/calibration_in_use.hpp"
 #include "gyrotc/app/commands.hpp"
+#include "gyrotc/app/daemon/config.hpp"
 #include "gyrotc/app/errors.hpp"
 
 namespace gyrotc::app {
@@ -75,8 +77,19 @@ toml::table read_toml(const std::string& path) {
   }
 }
 
+// The calibration the configuration names, as the daemon would load it.
+DeviceResult probe_calibration(const std::string& file) {
+  try {
+    return {"calibration", "ok", describe(load_calibration_in_use(file))};
+  } catch (const InputError& e) {
+    return {"calibration", "error", e.what()};
+  }
+}
+
 void run_probe(const std::string& config_path, bool json) {
-  const BoardConfig config = parse_board_config(read_toml(config_path), config_path);
+  read_toml(config_path);  // a missing or unparsable file: one clear line
+  const DaemonConfig daemon = load_daemon_config(config_path);
+  const BoardConfig& config = daemon.board;
   std::vector<DeviceResult> results;
   const double adc_timeout_s = 10.0 * hal::Ads1251::kClocksPerSample / config.devices.adc.fclk_hz + 0.1;
   if (config.hal == HalKind::sim) {
@@ -101,6 +114,8 @@ void run_probe(const std::string& config_path, bool json) {
       }
     }
   }
+
+  results.push_back(probe_calibration(daemon.calibration_file));
 
   bool all_ok = true;
   for (const DeviceResult& r : results) all_ok = all_ok && r.status == "ok";
@@ -128,8 +143,9 @@ void add_probe_command(CLI::App& app) {
   auto* cmd = app.add_subcommand(
       "probe",
       "Read every configured device once (temperature sensor(s), one ADC sample, the OPA548 thermal flag) and "
-      "print what was found, one line per device. DACs are left at 0 A / mid-scale and the OPA548 disabled. "
-      "Exit status 1 if any device failed.");
+      "print what was found, one line per device, then the calibration the configuration names (file, model, "
+      "temperature range, SHA-256). DACs are left at 0 A / mid-scale and the OPA548 disabled. "
+      "Exit status 1 if any device or the calibration failed.");
   auto config_path = std::make_shared<std::string>();
   auto json = std::make_shared<bool>(false);
   cmd->add_option("-c,--config", *config_path,

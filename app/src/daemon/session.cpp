@@ -12,7 +12,8 @@
 #include <nlohmann/json.hpp>
 
 #include "gyrotc/algorithms/fit/compensator.hpp"
-#include "gyrotc/app/calibration_file.hpp"
+#include "gyrotc/app/calibration_in_use.hpp"
+#include "gyrotc/app/daemon/kernel_rt.hpp"
 #include "gyrotc/app/daemon/line_sink.hpp"
 #include "gyrotc/app/daemon/log.hpp"
 #include "gyrotc/app/daemon/realtime_runner.hpp"
@@ -25,9 +26,7 @@
 namespace gyrotc::app {
 namespace {
 
-std::unique_ptr<fit::Compensator> load_compensator(const std::string& path) {
-  if (path.empty()) return std::make_unique<fit::Compensator>(fit::BiasModel::paper_reference());
-  Calibration c = read_calibration(path);
+std::unique_ptr<fit::Compensator> make_compensator(CalibrationInUse c) {
   return std::make_unique<fit::Compensator>(std::move(c.model), c.scale_mv_per_dps);
 }
 
@@ -80,7 +79,9 @@ void run_session(const SessionOptions& options) {
   // the new one (Controller::compensator_in_use): it may be in a sample with
   // the old one when the reload swaps them.
   std::vector<std::unique_ptr<fit::Compensator>> compensators;
-  compensators.push_back(load_compensator(config.calibration_file));
+  CalibrationInUse calibration = load_calibration_in_use(config.calibration_file);
+  const std::string calibration_text = describe(calibration);
+  compensators.push_back(make_compensator(std::move(calibration)));
   Controller controller(config.controller, *compensators.back());
 
   // Output files before any device: a bad path fails without touching the board.
@@ -129,6 +130,14 @@ void run_session(const SessionOptions& options) {
     });
   }
 
+  if (config.board.hal == HalKind::linux_devices) {
+    const KernelRealtime kernel = running_kernel_realtime();
+    if (!kernel.preempt_rt) {
+      GYROTC_LOG_WARNING("the kernel is not PREEMPT_RT (%s): under load the DRDY-to-read latency can exceed the "
+                         "ADS1251's DOUT window; late reads are counted (docs/BOARD-rpi4.md)",
+                         kernel.evidence.c_str());
+    }
+  }
   runner.start();
   SystemdNotify notify;
   notify.ready();
@@ -136,7 +145,7 @@ void run_session(const SessionOptions& options) {
                     config.board.hal == HalKind::sim ? "the simulated board" : "the board", config.source.c_str(),
                     runner.is_realtime() ? "SCHED_FIFO" : "normal scheduler (--allow-non-rt)",
                     runner.memory_locked() ? "locked" : "not locked", config.controller.pid_enabled ? "on" : "off",
-                    config.calibration_file.empty() ? "the seed's reference model" : config.calibration_file.c_str());
+                    calibration_text.c_str());
 
   using clock = std::chrono::steady_clock;
   const auto started = clock::now();
@@ -157,9 +166,11 @@ void run_session(const SessionOptions& options) {
         GYROTC_LOG_NOTICE("SIGHUP: no [calibration] file configured, nothing to reload");
       } else {
         try {
-          compensators.push_back(load_compensator(config.calibration_file));
+          CalibrationInUse reloaded = load_calibration_in_use(config.calibration_file);
+          const std::string text = describe(reloaded);
+          compensators.push_back(make_compensator(std::move(reloaded)));
           controller.set_compensator(*compensators.back());
-          GYROTC_LOG_NOTICE("SIGHUP: calibration reloaded from %s", config.calibration_file.c_str());
+          GYROTC_LOG_NOTICE("SIGHUP: calibration reloaded from %s", text.c_str());
         } catch (const std::exception& e) {
           GYROTC_LOG_ERROR("SIGHUP: calibration not reloaded, the old one stays: %s", e.what());
         }

@@ -7,6 +7,8 @@
 #include <string>
 #include <vector>
 
+#include "test_paths.hpp"
+
 namespace gyrotc::test {
 
 struct Table2 {
@@ -16,7 +18,7 @@ struct Table2 {
 };
 
 inline Table2 read_table2() {
-  std::ifstream in(std::string(GYROTC_DATA_DIR) + "/table2_zero_bias.csv");
+  std::ifstream in(gyrotc::test::data_file("table2_zero_bias.csv"));
   if (!in) throw std::runtime_error("cannot open table2_zero_bias.csv");
   Table2 t;
   std::string line;

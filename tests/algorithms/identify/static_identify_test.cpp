@@ -7,6 +7,7 @@
 
 #include "gyrotc/algorithms/identify/static_identify.hpp"
 #include "gyrotc_catch.hpp"
+#include "test_paths.hpp"
 
 using gyrotc::identify::identify_static;
 using gyrotc::identify::StaticQuantity;
@@ -21,7 +22,7 @@ struct Table1 {
 };
 
 Table1 read_table1() {
-  std::ifstream in(std::string(GYROTC_DATA_DIR) + "/table1_resonance_q.csv");
+  std::ifstream in(gyrotc::test::data_file("table1_resonance_q.csv"));
   REQUIRE(in.good());
   std::string line;
   std::getline(in, line);

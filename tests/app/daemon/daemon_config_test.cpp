@@ -5,6 +5,7 @@
 #include "gyrotc/app/daemon/config.hpp"
 #include "gyrotc/app/errors.hpp"
 #include "gyrotc_catch.hpp"
+#include "test_paths.hpp"
 #include "input_error_of.hpp"
 
 using gyrotc::app::DaemonConfig;
@@ -23,7 +24,7 @@ std::string error_of(const std::string& text) {
 
 TEST_CASE("both example configurations in deploy/config load as daemon configurations") {
   for (const char* name : {"gyrotc-sim.toml", "gyrotc-linux.toml"}) {
-    const DaemonConfig c = gyrotc::app::load_daemon_config(std::string(GYROTC_SOURCE_DIR) + "/deploy/config/" + name);
+    const DaemonConfig c = gyrotc::app::load_daemon_config(gyrotc::test::config_file(name));
     CHECK(c.controller.setpoint_c == 55.0);
     CHECK(c.controller.pid.period_s == 2.0);
     CHECK(c.controller.pid.xi_c == 0.5);

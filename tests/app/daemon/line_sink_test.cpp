@@ -13,6 +13,7 @@
 #include "gyrotc/app/daemon/line_sink.hpp"
 #include "gyrotc/app/errors.hpp"
 #include "gyrotc_catch.hpp"
+#include "test_paths.hpp"
 
 using gyrotc::app::LineSink;
 
@@ -32,7 +33,7 @@ struct IgnoreSigpipe {
   void (*previous)(int);
 };
 
-std::string temp_path(const char* name) { return std::string(GYROTC_BINARY_DIR) + "/" + name; }
+std::string temp_path(const char* name) { return gyrotc::test::scratch_dir() + "/" + name; }
 
 }  // namespace
 

@@ -21,6 +21,7 @@
 #include "gyrotc/app/errors.hpp"
 #include "gyrotc/hal/chips/ads1251.hpp"
 #include "gyrotc_catch.hpp"
+#include "test_paths.hpp"
 
 using namespace gyrotc;
 using gyrotc::app::RealtimeRunner;
@@ -31,7 +32,7 @@ using gyrotc::app::RealtimeRunner;
 
 namespace {
 
-const std::string kSimConfig = std::string(GYROTC_SOURCE_DIR) + "/deploy/config/gyrotc-sim.toml";
+const std::string kSimConfig = gyrotc::test::config_file("gyrotc-sim.toml");
 
 struct SimRig {
   app::DaemonConfig config = app::load_daemon_config(kSimConfig);
@@ -59,7 +60,7 @@ struct SimRig {
 
 // Starts the gyrotc executable with args, stderr to err_path.
 pid_t spawn_gyrotc(const std::vector<std::string>& args, const std::string& err_path) {
-  const std::string exe = std::string(GYROTC_BINARY_DIR) + "/app/gyrotc";
+  const std::string exe = gyrotc::test::gyrotc_exe();
   std::vector<char*> argv;
   argv.push_back(const_cast<char*>(exe.c_str()));
   for (const auto& a : args) argv.push_back(const_cast<char*>(a.c_str()));
@@ -149,7 +150,7 @@ TEST_CASE("without SCHED_FIFO permission the runner refuses, naming --allow-non-
 }
 
 TEST_CASE("SIGTERM to a running `gyrotc run` on the simulated board: exit 0, TEC off, summary written") {
-  const std::string dir = std::string(GYROTC_BINARY_DIR);
+  const std::string dir = gyrotc::test::scratch_dir();
   const std::string config = dir + "/daemon_sigterm.toml";
   const std::string summary = dir + "/daemon_sigterm_summary.json";
   const std::string stream = dir + "/daemon_sigterm_stream.csv";
@@ -161,11 +162,14 @@ TEST_CASE("SIGTERM to a running `gyrotc run` on the simulated board: exit 0, TEC
     text.replace(text.find(from), from.size(), "stream = \"file\"\npath = \"" + stream + "\"");
     const std::string period = "period_s = 1.0                 # one line";
     text.replace(text.find(period), period.size(), "period_s = 0.2  # one line");
+    const std::string calibration = "file = \"calibration.toml\"";
+    text.replace(text.find(calibration), calibration.size(),
+                 "file = \"" + gyrotc::test::config_file("calibration.toml") + "\"");
     std::ofstream(config) << text;
   }
   std::remove(summary.c_str());
   std::remove(stream.c_str());
-  const std::string exe = dir + "/app/gyrotc";
+  const std::string exe = gyrotc::test::gyrotc_exe();
   const pid_t pid = fork();
   REQUIRE(pid >= 0);
   if (pid == 0) {
@@ -198,14 +202,14 @@ TEST_CASE("SIGTERM to a running `gyrotc run` on the simulated board: exit 0, TEC
 }
 
 TEST_CASE("SIGHUP reloads the calibration file, an invalid one is rejected, logged, and the run goes on") {
-  const std::string dir = std::string(GYROTC_BINARY_DIR);
+  const std::string dir = gyrotc::test::scratch_dir();
   const std::string config = dir + "/daemon_sighup.toml";
   const std::string calibration = dir + "/daemon_sighup_calibration.toml";
   const std::string err = dir + "/daemon_sighup.err";
-  std::ofstream(calibration) << read_text(std::string(GYROTC_DATA_DIR) + "/calibration_table2.toml");
+  std::ofstream(calibration) << read_text(gyrotc::test::data_file("calibration_table2.toml"));
   {
     std::string text = read_text(kSimConfig);
-    const std::string from = "file = \"\"";
+    const std::string from = "file = \"calibration.toml\"";
     text.replace(text.find(from), from.size(), "file = \"" + calibration + "\"");
     const std::string stream = "stream = \"stdout\"";
     text.replace(text.find(stream), stream.size(), "stream = \"none\"");
@@ -225,7 +229,7 @@ TEST_CASE("SIGHUP reloads the calibration file, an invalid one is rejected, logg
 }
 
 TEST_CASE("gyrotc safe-off on the simulated board exits 0, a bad configuration exits 2 naming the key") {
-  const std::string dir = std::string(GYROTC_BINARY_DIR);
+  const std::string dir = gyrotc::test::scratch_dir();
   CHECK(exit_status(spawn_gyrotc({"safe-off", "--config", kSimConfig}, dir + "/daemon_safe_off.err")) == 0);
   const std::string bad = dir + "/daemon_bad.toml";
   std::ofstream(bad) << "hal = \"sim\"\n[control]\nperiod_s = -2\n";
@@ -235,7 +239,7 @@ TEST_CASE("gyrotc safe-off on the simulated board exits 0, a bad configuration e
 }
 
 TEST_CASE("gyrotc record writes the columns gyrotc fit reads, one row per period with a casing reading") {
-  const std::string dir = std::string(GYROTC_BINARY_DIR);
+  const std::string dir = gyrotc::test::scratch_dir();
   const std::string csv = dir + "/daemon_record.csv";
   std::remove(csv.c_str());
   REQUIRE(exit_status(spawn_gyrotc({"record", "--config", kSimConfig, "--out", csv, "--duration", "3", "--pid", "off",

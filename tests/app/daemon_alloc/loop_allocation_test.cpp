@@ -11,6 +11,7 @@
 #include "gyrotc/app/daemon/realtime_runner.hpp"
 #include "gyrotc/hal/chips/ads1251.hpp"
 #include "gyrotc_catch.hpp"
+#include "test_paths.hpp"
 
 namespace {
 std::atomic<bool> g_counting{false};
@@ -51,7 +52,7 @@ TEST_CASE("the real-time loop body allocates nothing: samples, readings, PID tic
   // The loop body (RealtimeRunner::step) driven on the lockstep simulated
   // board: the same code the SCHED_FIFO thread runs, without the threads.
   const app::DaemonConfig config =
-      app::load_daemon_config(std::string(GYROTC_SOURCE_DIR) + "/deploy/config/gyrotc-sim.toml");
+      app::load_daemon_config(gyrotc::test::config_file("gyrotc-sim.toml"));
   app::BoardInstance instance = app::make_board(config.board, app::SimTiming::lockstep);
   const hal::Board board = instance.board();
   const fit::Compensator compensator{fit::BiasModel::paper_reference()};

@@ -9,6 +9,7 @@
 #include "gyrotc/app/csv_table.hpp"
 #include "gyrotc/app/errors.hpp"
 #include "gyrotc_catch.hpp"
+#include "test_paths.hpp"
 #include "input_error_of.hpp"
 
 using gyrotc::app::Calibration;
@@ -24,7 +25,7 @@ struct Table2 {
 };
 
 Table2 table2() {
-  const auto t = gyrotc::app::CsvTable::read(std::string(GYROTC_DATA_DIR) + "/table2_zero_bias.csv");
+  const auto t = gyrotc::app::CsvTable::read(gyrotc::test::data_file("table2_zero_bias.csv"));
   return {t.numbers("temp_c"), t.numbers("gyro_mv")};
 }
 
@@ -72,7 +73,7 @@ TEST_CASE("save_calibration writes a file load_calibration reads") {
 }
 
 TEST_CASE("the shipped default calibration is the best LOO model of Table 2") {
-  const BiasModel m = gyrotc::app::load_calibration(std::string(GYROTC_DATA_DIR) + "/calibration_table2.toml");
+  const BiasModel m = gyrotc::app::load_calibration(gyrotc::test::data_file("calibration_table2.toml"));
   const Table2 t = table2();
   MethodOptions o;
   o.method = Method::automatic;

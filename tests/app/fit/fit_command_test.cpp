@@ -11,6 +11,7 @@
 #include "gyrotc/app/commands.hpp"
 #include "gyrotc/app/errors.hpp"
 #include "gyrotc_catch.hpp"
+#include "test_paths.hpp"
 #include "input_error_of.hpp"
 #include "run_command.hpp"
 
@@ -18,7 +19,7 @@ namespace fs = std::filesystem;
 
 namespace {
 
-const std::string kTable2 = std::string(GYROTC_DATA_DIR) + "/table2_zero_bias.csv";
+const std::string kTable2 = gyrotc::test::data_file("table2_zero_bias.csv");
 
 std::string run_fit(const std::vector<std::string>& args) {
   return gyrotc::test::run_command(gyrotc::app::add_fit_command, "fit", args);

@@ -13,6 +13,7 @@
 #include "gyrotc/app/errors.hpp"
 #include "gyrotc/app/plant_file.hpp"
 #include "gyrotc_catch.hpp"
+#include "test_paths.hpp"
 #include "run_command.hpp"
 
 namespace fs = std::filesystem;
@@ -20,7 +21,7 @@ using gyrotc::app::InputError;
 
 namespace {
 
-const std::string kTable1 = std::string(GYROTC_DATA_DIR) + "/table1_resonance_q.csv";
+const std::string kTable1 = gyrotc::test::data_file("table1_resonance_q.csv");
 
 fs::path temp_path(const std::string& name) {
   return fs::temp_directory_path() / ("gyrotc_identify_" + std::to_string(::getpid()) + "_" + name);

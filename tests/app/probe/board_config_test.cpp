@@ -4,6 +4,7 @@
 
 #include "gyrotc/app/errors.hpp"
 #include "gyrotc_catch.hpp"
+#include "test_paths.hpp"
 #include "input_error_of.hpp"
 
 using namespace gyrotc;
@@ -20,7 +21,7 @@ std::string error_of(const std::string& text) {
 }  // namespace
 
 TEST_CASE("the sim example configuration parses into the documented settings") {
-  const BoardConfig c = parse_board_config(toml::parse_file(GYROTC_SOURCE_DIR "/deploy/config/gyrotc-sim.toml"),
+  const BoardConfig c = parse_board_config(toml::parse_file(gyrotc::test::config_file("gyrotc-sim.toml")),
                                            "gyrotc-sim.toml");
   CHECK(c.hal == HalKind::sim);
   CHECK(c.devices.adc_spi == "/dev/spidev0.0");
@@ -37,7 +38,7 @@ TEST_CASE("the sim example configuration parses into the documented settings") {
 }
 
 TEST_CASE("the linux example configuration parses with hal = linux") {
-  const BoardConfig c = parse_board_config(toml::parse_file(GYROTC_SOURCE_DIR "/deploy/config/gyrotc-linux.toml"),
+  const BoardConfig c = parse_board_config(toml::parse_file(gyrotc::test::config_file("gyrotc-linux.toml")),
                                            "gyrotc-linux.toml");
   CHECK(c.hal == HalKind::linux_devices);
 }

@@ -14,12 +14,13 @@
 #include "gyrotc/app/commands.hpp"
 #include "gyrotc/app/errors.hpp"
 #include "gyrotc_catch.hpp"
+#include "test_paths.hpp"
 
 namespace fs = std::filesystem;
 
 namespace {
 
-const std::string kSimConfig = GYROTC_SOURCE_DIR "/deploy/config/gyrotc-sim.toml";
+const std::string kSimConfig = gyrotc::test::config_file("gyrotc-sim.toml");
 
 struct ProbeRun {
   int status = 0;
@@ -80,6 +81,10 @@ std::string linux_variant() {
   for (std::size_t at; (at = s.find("\"/sys/bus/w1/devices\"")) != std::string::npos;) {
     s.replace(at, 21, "\"/nonexistent-gyrotc-w1\"");
   }
+  // The calibration where it is, not beside the copy.
+  const std::string calibration = "file = \"calibration.toml\"";
+  s.replace(s.find(calibration), calibration.size(),
+            "file = \"" + gyrotc::test::config_file("calibration.toml") + "\"");
   const fs::path path = fs::temp_directory_path() / ("gyrotc-probe-linux-" + std::to_string(::getpid()) + ".toml");
   std::ofstream(path) << s;
   return path.string();
@@ -91,7 +96,7 @@ TEST_CASE("probe on the sim example reports every device OK and exits 0") {
   const ProbeRun run = probe({"--config", kSimConfig});
   CHECK(run.status == 0);
   const auto lines = lines_of(run.out);
-  REQUIRE(lines.size() == 7);  // header + adc, casing, ambient, rate_dac, tec_dac, opa548
+  REQUIRE(lines.size() == 8);  // header + adc, casing, ambient, rate_dac, tec_dac, opa548, calibration
   CHECK(lines[0] == "board: hal = \"sim\" (" + kSimConfig + ")");
   for (std::size_t i = 1; i < lines.size(); ++i) {
     INFO(lines[i]);
@@ -107,7 +112,7 @@ TEST_CASE("probe --json on the sim example lists every device ok") {
   const auto json = nlohmann::json::parse(run.out);
   CHECK(json["hal"] == "sim");
   CHECK(json["ok"] == true);
-  REQUIRE(json["devices"].size() == 6);
+  REQUIRE(json["devices"].size() == 7);
   for (const auto& device : json["devices"]) CHECK(device["status"] == "ok");
 }
 
@@ -117,7 +122,7 @@ TEST_CASE("probe with hal = linux and no devices prints one error line per devic
   fs::remove(config);
   CHECK(run.status == 1);
   const auto lines = lines_of(run.out);
-  REQUIRE(lines.size() == 7);
+  REQUIRE(lines.size() == 8);
   const std::vector<std::string> devices{"adc", "casing_sensor", "ambient_sensor", "rate_dac", "tec_dac", "opa548"};
   for (std::size_t i = 0; i < devices.size(); ++i) {
     INFO(lines[i + 1]);
@@ -129,8 +134,46 @@ TEST_CASE("probe with hal = linux and no devices prints one error line per devic
   CHECK(lines[4].find("'/dev/spidev6.0'") != std::string::npos);
   CHECK(lines[5].find("'/dev/spidev6.1'") != std::string::npos);
   CHECK(lines[2].find("/nonexistent-gyrotc-w1") != std::string::npos);
+  CHECK(lines[7].rfind("calibration     OK", 0) == 0);
 }
 
 TEST_CASE("probe without a readable config file is a usage error") {
   CHECK(probe({"--config", "/nonexistent/gyrotc.toml"}).status == 2);
+}
+
+namespace {
+// The sim example, copied with its [calibration] file replaced by `file`.
+std::string sim_with_calibration(const std::string& name, const std::string& file) {
+  std::ifstream in(kSimConfig);
+  std::stringstream text;
+  text << in.rdbuf();
+  std::string s = text.str();
+  const std::string from = "file = \"calibration.toml\"";
+  s.replace(s.find(from), from.size(), "file = \"" + file + "\"");
+  const std::string path = gyrotc::test::scratch_dir() + "/" + name;
+  std::ofstream(path) << s;
+  return path;
+}
+}  // namespace
+
+TEST_CASE("probe names the calibration the configuration names: file, model, range and SHA-256") {
+  const ProbeRun run = probe({"--config", kSimConfig, "--json"});
+  const auto json = nlohmann::json::parse(run.out);
+  const auto& calibration = json["devices"].back();
+  CHECK(calibration["device"] == "calibration");
+  CHECK(calibration["status"] == "ok");
+  const std::string detail = calibration["detail"];
+  CHECK(detail.find(gyrotc::test::config_file("calibration.toml") + ": ") == 0);
+  CHECK(detail.find("piecewise, -40..80 C") != std::string::npos);
+  CHECK(detail.find("sha256 ") != std::string::npos);
+}
+
+TEST_CASE("probe reports a missing calibration file as an error naming it, and exits 1") {
+  const std::string config = sim_with_calibration("probe_missing_cal.toml", "no-such-calibration.toml");
+  const ProbeRun run = probe({"--config", config});
+  CHECK(run.status == 1);
+  const auto lines = lines_of(run.out);
+  REQUIRE(lines.size() == 8);
+  CHECK(lines[7].rfind("calibration     ERROR", 0) == 0);
+  CHECK(lines[7].find(gyrotc::test::scratch_dir() + "/no-such-calibration.toml: cannot open") != std::string::npos);
 }

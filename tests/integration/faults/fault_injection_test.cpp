@@ -13,6 +13,7 @@
 #include "gyrotc/app/daemon/realtime_runner.hpp"
 #include "gyrotc/hal/chips/ads1251.hpp"
 #include "gyrotc_catch.hpp"
+#include "test_paths.hpp"
 
 using namespace gyrotc;
 
@@ -21,7 +22,7 @@ namespace {
 class Rig {
  public:
   Rig()
-      : config_(app::load_daemon_config(std::string(GYROTC_SOURCE_DIR) + "/deploy/config/gyrotc-sim.toml")),
+      : config_(app::load_daemon_config(gyrotc::test::config_file("gyrotc-sim.toml"))),
         instance_(app::make_board(config_.board, app::SimTiming::lockstep)),
         board_(instance_.board()),
         compensator_(fit::BiasModel::paper_reference()),

@@ -9,6 +9,7 @@
 #include "gyrotc/app/chamber_profile_file.hpp"
 #include "gyrotc/app/lockstep_runner.hpp"
 #include "gyrotc_catch.hpp"
+#include "test_paths.hpp"
 
 using namespace gyrotc::app;
 
@@ -21,7 +22,7 @@ SimulationResult run_fig26(ControllerMode mode) {
   setup.calibration = &calibration;
   setup.sample_rate_hz = 20.0;
   setup.seed = 1;
-  return run_simulation(setup, chamber_profile_by_name("fig26", GYROTC_DATA_DIR));
+  return run_simulation(setup, chamber_profile_by_name("fig26", gyrotc::test::data_dir()));
 }
 
 const SimulationResult& paper() {

@@ -2,25 +2,31 @@ SUMMARY = "Temperature compensation and control for MEMS gyroscopes"
 DESCRIPTION = "gyrotc runs the temperature loop (DS18B20, AD5060 + OPA548 TEC stage) and \
 the zero-bias compensation (ADS1251 in, AD5060 out) of a MEMS gyroscope as a \
 real-time systemd service."
+HOMEPAGE = "https://localhost/gyrotc"
 SECTION = "utils"
-# The project has no licence file yet: change this together with LIC_FILES_CHKSUM when it does.
-LICENSE = "CLOSED"
+LICENSE = "Apache-2.0"
+LIC_FILES_CHKSUM = "file://LICENSE;md5=3b83ef96387f14655fc854ddc3c6bd57"
 
 # By default the recipe builds the tree this layer lives in (deploy/yocto/meta-gyrotc
-# inside the gyrotc repository). To build a fixed revision instead, in a bbappend:
+# inside the gyrotc repository). To build a fixed revision instead, in a bbappend
+# (an empty EXTERNALSRC switches externalsrc off):
 #   EXTERNALSRC = ""
-#   SRC_URI = "git://<your server>/gyrotc.git;protocol=https;branch=main file://run-ptest"
+#   SRC_URI = "git://<your server>/gyrotc.git;protocol=https;branch=main"
 #   SRCREV = "<commit>"
-#   S = "${WORKDIR}/git"
+#   S = "${WORKDIR}/git"   (scarthgap; walnascar: S = "${UNPACKDIR}/git")
 EXTERNALSRC ?= "${@os.path.abspath(os.path.join(d.getVar('THISDIR'), '../../../../..'))}"
 EXTERNALSRC_BUILD ?= "${WORKDIR}/build"
-SRC_URI = "file://run-ptest"
 
-inherit externalsrc cmake pkgconfig systemd useradd ptest
+inherit externalsrc cmake pkgconfig systemd useradd ptest features_check
+
+# The unit is Type=notify with a watchdog, and the user comes from useradd: a
+# systemd image only.
+REQUIRED_DISTRO_FEATURES = "systemd"
 
 # The CMake project's third-party libraries (cmake/GyrotcDependencies.cmake), by recipe
 # name; tests/deploy/check_yocto_layer.cmake keeps this list in step with the project.
-# libgpiod must be 1.6.x: PREFERRED_VERSION_libgpiod = "1.6%" (see the layer README).
+# libgpiod: meta-oe's default (2.x) or a PREFERRED_VERSION_libgpiod = "1.6%" pin, both
+# work (the CMake project picks the back-end of the version it finds).
 DEPENDS = "libgpiod libeigen cli11 nlohmann-json tomlplusplus"
 
 PACKAGECONFIG ??= "${@bb.utils.filter('DISTRO_FEATURES', 'systemd', d)} \
@@ -28,17 +34,18 @@ PACKAGECONFIG ??= "${@bb.utils.filter('DISTRO_FEATURES', 'systemd', d)} \
 # sd_notify: READY=1 and the WATCHDOG=1 keep-alive of the Type=notify unit (gyrotc
 # speaks the protocol itself: no libsystemd dependency).
 PACKAGECONFIG[systemd] = "-DGYROTC_SYSTEMD_NOTIFY=ON,-DGYROTC_SYSTEMD_NOTIFY=OFF"
+# Catch2 2 (scarthgap) or 3 (walnascar). Without an emulator the CMake project does not
+# run the target's test binaries at build time (no test discovery); ptest runs them.
 PACKAGECONFIG[tests] = "-DGYROTC_BUILD_TESTS=ON,-DGYROTC_BUILD_TESTS=OFF,catch2"
 
-# Google Benchmark is a workstation tool. Catch2 tests are listed when ctest runs,
-# not by running the target binaries at build time.
+# Google Benchmark is a workstation tool.
 EXTRA_OECMAKE += " \
     -DGYROTC_BUILD_BENCH=OFF \
     -DGYROTC_WERROR=OFF \
     -DGYROTC_SYSTEMD_UNITDIR=${systemd_system_unitdir} \
     -DGYROTC_UDEV_RULESDIR=${nonarch_base_libdir}/udev/rules.d \
     -DGYROTC_SYSUSERSDIR=${nonarch_libdir}/sysusers.d \
-    -DCMAKE_CATCH_DISCOVER_TESTS_DISCOVERY_MODE=PRE_TEST \
+    -DGYROTC_PTEST_DIR=${PTEST_PATH} \
 "
 
 USERADD_PACKAGES = "${PN}"
@@ -62,19 +69,14 @@ FILES:${PN} += " \
     ${datadir}/gyrotc \
 "
 
-# The test executables have the source tree's path compiled in (seed data, example
-# configurations): the ptest package carries data/ and deploy/config/, and run-ptest
-# links that path to them on the target.
+# The kernel drivers the board needs (modules on most kernels; where they are built in
+# these packages do not exist, which a recommendation tolerates).
+RRECOMMENDS:${PN} += "kernel-module-spidev kernel-module-w1-gpio kernel-module-w1-therm"
+
+# The ptest tree comes from the CMake project itself (component "ptest": tests/test_*,
+# share/gyrotc, config, run-ptest; the test binaries find everything relative to
+# themselves and run /usr/bin/gyrotc), so nothing of ${S} or ${B} is on the target.
 do_install_ptest() {
-    install -d ${D}${PTEST_PATH}/tests ${D}${PTEST_PATH}/source/deploy
-    for t in ${B}/tests/test_*; do
-        if [ -f "$t" ] && [ -x "$t" ]; then
-            install -m 0755 "$t" ${D}${PTEST_PATH}/tests/
-        fi
-    done
-    cp -R --no-preserve=ownership ${S}/data ${D}${PTEST_PATH}/source/
-    cp -R --no-preserve=ownership ${S}/deploy/config ${D}${PTEST_PATH}/source/deploy/
-    sed -i -e 's#@GYROTC_BUILD_SOURCE_DIR@#${S}#' -e 's#@GYROTC_BUILD_BINARY_DIR@#${B}#' \
-        ${D}${PTEST_PATH}/run-ptest
+    DESTDIR=${D} cmake --install ${B} --component ptest
 }
 RDEPENDS:${PN}-ptest += "${PN}"

@@ -1,5 +1,6 @@
 # toml++ for releases whose meta-oe lacks it (scarthgap, styhead). meta-oe carries a
-# tomlplusplus recipe from walnascar on; this layer's lower priority lets that one win.
+# tomlplusplus recipe (also 3.4.0) from walnascar on: this one steps aside for it.
+DEFAULT_PREFERENCE = "-1"
 SUMMARY = "Header-only TOML config file parser and serializer for C++17"
 HOMEPAGE = "https://marzer.github.io/tomlplusplus/"
 SECTION = "libs"
