@@ -19,6 +19,8 @@ int __real_open(const char* path, int flags, ...);
 int __real_ioctl(int fd, unsigned long request, ...);
 int __real_close(int fd);
 
+int __real_open64(const char* path, int flags, ...);
+
 int __wrap_open(const char* path, int flags, ...) {
   mode_t mode = 0;
   if ((flags & (O_CREAT | O_TMPFILE)) != 0) {
@@ -36,6 +38,20 @@ int __wrap_open(const char* path, int flags, ...) {
     return fake->fd;
   }
   return __real_open(path, flags, mode);
+}
+
+// With _FILE_OFFSET_BITS=64 on a 32-bit target (armhf), open() is open64().
+int __wrap_open64(const char* path, int flags, ...) {
+  mode_t mode = 0;
+  if ((flags & (O_CREAT | O_TMPFILE)) != 0) {
+    va_list args;
+    va_start(args, flags);
+    mode = static_cast<mode_t>(va_arg(args, unsigned));
+    va_end(args);
+  }
+  FakeSpidev* fake = FakeSpidev::armed();
+  if (fake != nullptr && fake->path == path) return __wrap_open(path, flags, mode);
+  return __real_open64(path, flags, mode);
 }
 
 int __wrap_ioctl(int fd, unsigned long request, ...) {
