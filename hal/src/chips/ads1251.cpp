@@ -66,8 +66,8 @@ Result<AdcSample> Ads1251::do_read(double timeout_s) noexcept {
     }
     if (during_transfer && since_s < next_drdy_after_s_) continue;  // data bits of a read late in the window
     if (have_read_ && have_edge_) {
-      const double periods = std::round(since_s / period_s_);
-      if (periods > 1.0) stats_.missed_conversions += static_cast<std::uint64_t>(periods) - 1;
+      const auto periods = static_cast<std::uint64_t>(since_s / period_s_ + 0.5);  // since_s > 0
+      if (periods > 1) stats_.missed_conversions += periods - 1;
     }
     have_edge_ = true;
     last_edge_s_ = edge_s;
@@ -78,8 +78,12 @@ Result<AdcSample> Ads1251::do_read(double timeout_s) noexcept {
       continue;
     }
 
-    if (clock_.now_s() < edge_s + hold_off_s_) clock_.sleep_until(edge_s + hold_off_s_);
-    if (clock_.now_s() + transfer_s_ > edge_s + window_s_) {
+    double now_s = clock_.now_s();
+    if (now_s < edge_s + hold_off_s_) {
+      clock_.sleep_until(edge_s + hold_off_s_);
+      now_s = clock_.now_s();
+    }
+    if (now_s + transfer_s_ > edge_s + window_s_) {
       if (have_read_) ++stats_.missed_conversions;  // woken too late: clocking now would read a mix
       continue;
     }

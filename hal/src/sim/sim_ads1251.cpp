@@ -1,6 +1,7 @@
 #include "gyrotc/hal/sim/sim_ads1251.hpp"
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
 #include <limits>
 
@@ -38,6 +39,7 @@ SimAds1251::SimAds1251(Input& input, Clock& clock, const Config& config) noexcep
   t_s_ = clock.now_s();
   last_visible_s_ = t_s_;
   cycle_ = static_cast<std::int64_t>(std::floor(t_s_ / period_s_));
+  enter(Segment::drdy_high);
   history_index_.fill(-1);
 }
 
@@ -47,13 +49,6 @@ std::int32_t SimAds1251::code_for_mv(double mv) const noexcept {
   if (code <= Ads1251::kCodeMin) return Ads1251::kCodeMin;
   // Round half away from zero; cheaper than nearbyint on the per-sample path.
   return static_cast<std::int32_t>(code + (code < 0.0 ? -0.5 : 0.5));
-}
-
-std::optional<std::int32_t> SimAds1251::code_of_conversion(std::int64_t k) const noexcept {
-  if (k < 0) return std::nullopt;
-  const auto slot = static_cast<std::size_t>(k % static_cast<std::int64_t>(kHistory));
-  if (history_index_[slot] != k) return std::nullopt;
-  return history_code_[slot];
 }
 
 SimAds1251::Counters SimAds1251::counters() const noexcept {
@@ -79,15 +74,15 @@ double SimAds1251::wake_latency_s() noexcept {
 
 // --- the pin -------------------------------------------------------------------
 
-double SimAds1251::next_boundary_s() const noexcept {
+void SimAds1251::enter(Segment segment) noexcept {
+  segment_ = segment;
   const double edge_s = static_cast<double>(cycle_) * period_s_;
-  switch (segment_) {
-    case Segment::pulse_low: return edge_s + kPulseLowClocks * tclk_s_;
-    case Segment::pulse_high: return edge_s + kDoutStartClocks * tclk_s_;
-    case Segment::dout: return edge_s + kDoutEndClocks * tclk_s_;
-    case Segment::drdy_high: break;
+  switch (segment) {
+    case Segment::pulse_low: boundary_s_ = edge_s + kPulseLowClocks * tclk_s_; return;
+    case Segment::pulse_high: boundary_s_ = edge_s + kDoutStartClocks * tclk_s_; return;
+    case Segment::dout: boundary_s_ = edge_s + kDoutEndClocks * tclk_s_; return;
+    case Segment::drdy_high: boundary_s_ = static_cast<double>(cycle_ + 1) * period_s_; return;
   }
-  return static_cast<double>(cycle_ + 1) * period_s_;
 }
 
 bool SimAds1251::dout_bit() const noexcept {
@@ -95,18 +90,18 @@ bool SimAds1251::dout_bit() const noexcept {
 }
 
 void SimAds1251::cross_boundary() noexcept {
-  const double t = next_boundary_s();
+  const double t = boundary_s_;
   switch (segment_) {
     case Segment::pulse_low:
-      segment_ = Segment::pulse_high;
+      enter(Segment::pulse_high);
       set_level(true, t);
       break;
     case Segment::pulse_high:
-      segment_ = Segment::dout;
+      enter(Segment::dout);
       set_level(dout_bit(), t);
       break;
     case Segment::dout:
-      segment_ = Segment::drdy_high;
+      enter(Segment::drdy_high);
       set_level(true, t);
       break;
     case Segment::drdy_high: {
@@ -116,11 +111,11 @@ void SimAds1251::cross_boundary() noexcept {
       const std::int32_t code = code_for_mv(input_.input_mv(t));
       frame_ = static_cast<std::uint32_t>(code) & 0xFFFFFFu;
       pointer_ = 0;
-      const auto slot = static_cast<std::size_t>(cycle_ % static_cast<std::int64_t>(kHistory));
+      const auto slot = static_cast<std::size_t>(cycle_) % kHistory;
       history_index_[slot] = cycle_;
       history_code_[slot] = code;
       bump(conversions_);
-      segment_ = Segment::pulse_low;
+      enter(Segment::pulse_low);
       set_level(false, t);
       break;
     }
@@ -131,11 +126,11 @@ void SimAds1251::cross_boundary() noexcept {
 void SimAds1251::advance_to(double t_s) noexcept {
   if (!(t_s > t_s_)) return;
   for (;;) {
-    const double boundary_s = next_boundary_s();
+    const double boundary_s = boundary_s_;
     if (glitch_s_ <= t_s && glitch_s_ <= boundary_s) {
       // A spike too short to change the level the state machine sees.
       label_visible(glitch_s_);
-      queue_edge(glitch_s_, true);
+      queue_edge(glitch_s_, true, uniform(0.0, config_.timing.irq_delay_max_s));
       glitch_s_ = std::numeric_limits<double>::infinity();
     } else if (boundary_s <= t_s) {
       cross_boundary();
@@ -163,16 +158,16 @@ void SimAds1251::label_visible(double t_s) noexcept {
 void SimAds1251::set_level(bool level, double t_s) noexcept {
   if (stall_.load(std::memory_order_relaxed)) level = true;  // a stalled DRDY never falls
   if (level == level_) return;
-  label_visible(t_s);  // events readable before this edge see the old level
+  if (config_.request == EdgeRequest::both_v1) label_visible(t_s);  // readable before this edge: the old level
   level_ = level;
-  queue_edge(t_s, !level);
+  queue_edge(t_s, !level, uniform(0.0, config_.timing.irq_delay_max_s));
 }
 
-void SimAds1251::queue_edge(double t_s, bool falling) noexcept {
+void SimAds1251::queue_edge(double t_s, bool falling, double irq_delay_s) noexcept {
   if (config_.request == EdgeRequest::falling && !falling) return;  // rising edges are not requested
   Event e;
   e.stamp_s = t_s;
-  e.visible_s = std::max(t_s + uniform(0.0, config_.timing.irq_delay_max_s), last_visible_s_);
+  e.visible_s = std::max(t_s + irq_delay_s, last_visible_s_);
   last_visible_s_ = e.visible_s;
   e.falling = falling;
   e.labelled = config_.request == EdgeRequest::falling;
@@ -233,7 +228,7 @@ Result<double> SimAds1251::wait(Edge edge, double timeout_s) noexcept {
     }
     // Nothing readable yet: move the pin on to the next moment something can
     // become readable (the reader sleeps meanwhile; the clock follows below).
-    const double next_s = count_ > 0 ? queue_[head_].visible_s : next_boundary_s();
+    const double next_s = count_ > 0 ? queue_[head_].visible_s : boundary_s_;
     if (next_s > deadline_s) {
       advance_to(deadline_s);
       clock_.sleep_until(deadline_s);
@@ -275,19 +270,34 @@ Status SimAds1251::transfer(std::span<const std::uint8_t> tx, std::span<std::uin
   bool clean = rx.size() * 8 == kFrameBits && segment_ == Segment::dout && pointer_ == 0;
   const double end_s = start_s + static_cast<double>(rx.size() * 8) * bit_s_;  // the last falling SCLK edge
   // Mode 0: each bit is sampled on the rising SCLK edge, shifted on the falling one.
-  if (next_boundary_s() > end_s && glitch_s_ > end_s) {
-    // The pin's segment holds for the whole transfer (the usual read): only
-    // the shifts move it.
-    std::size_t bit = 0;
-    for (std::uint8_t& byte : rx) {
-      byte = 0;
-      for (int b = 0; b < 8; ++b) {
-        byte = static_cast<std::uint8_t>(byte << 1 | (level_ ? 1 : 0));
-        shift(start_s + static_cast<double>(++bit) * bit_s_);
-      }
+  const int bits = static_cast<int>(rx.size()) * 8;
+  if (bits < 64 && boundary_s_ > end_s && glitch_s_ > end_s && config_.request == EdgeRequest::falling &&
+      !stall_.load(std::memory_order_relaxed)) {
+    // The usual read: the pin's segment holds for the whole transfer, so
+    // only the shifts move it (in DOUT mode), and the IRQ thread that queues
+    // the burst of data edges wakes once for it. The levels the pin shows,
+    // MSB first from bit 63: L0 now, Lj after the j-th shift.
+    std::uint64_t levels = 0;
+    if (segment_ != Segment::dout) {
+      levels = level_ ? ~std::uint64_t{0} : 0;
+    } else if (pointer_ < kFrameBits) {
+      levels = static_cast<std::uint64_t>(frame_) << (64 - kFrameBits + pointer_);
     }
+    const std::uint64_t sampled = levels >> (64 - bits);
+    for (std::size_t i = 0; i < rx.size(); ++i) {
+      rx[i] = static_cast<std::uint8_t>(sampled >> (8 * (rx.size() - 1 - i)));
+    }
+    // A falling edge at shift j: L(j-1) = 1, Lj = 0.
+    std::uint64_t falling = levels & ~(levels << 1) & ~(~std::uint64_t{0} >> bits);
+    const double irq_delay_s = uniform(0.0, config_.timing.irq_delay_max_s);
+    while (falling != 0) {
+      const int j = std::countl_zero(falling) + 1;
+      queue_edge(start_s + j * bit_s_, true, irq_delay_s);
+      falling &= ~(std::uint64_t{1} << (64 - j));
+    }
+    level_ = ((levels >> (63 - bits)) & 1u) != 0;
+    pointer_ = std::min(pointer_ + bits, kFrameBits + 1);
     t_s_ = end_s;
-    label_visible(end_s);
   } else {
     std::size_t bit = 0;
     for (std::uint8_t& byte : rx) {

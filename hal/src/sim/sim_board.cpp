@@ -59,7 +59,7 @@ Board SimBoard::board() noexcept {
 Result<AdcSample> SimBoard::CheckedAdc::do_read(double timeout_s) noexcept {
   Result<AdcSample> sample = driver_.read(timeout_s);
   if (!sample) return sample;
-  const auto k = static_cast<std::int64_t>(std::llround(sample->time_s / chip_.sample_period_s()));
+  const auto k = static_cast<std::int64_t>(sample->time_s / chip_.sample_period_s() + 0.5);  // stamps are > 0
   const std::optional<std::int32_t> truth = chip_.code_of_conversion(k);
   accepted_.store(accepted_.load(std::memory_order_relaxed) + 1, std::memory_order_relaxed);
   if (!truth || *truth != sample->code) {

@@ -40,7 +40,11 @@ struct SimConfig {
   std::optional<double> initial_temp_c;
   // The simulated ADS1251 reader's environment (adc_* keys, in microseconds
   // in the file): wake-up latency, stalls, IRQ delivery, SPI start and return.
-  hal::SimAds1251::Timing adc_timing = hal::SimBoardOptions{}.adc_timing;
+  // Defaults: a PREEMPT_RT Raspberry Pi 4's typical figures (cyclictest
+  // 20-120 us wake-ups; threaded GPIO IRQs; the spidev message pump).
+  hal::SimAds1251::Timing adc_timing{.wake_min_s = 20e-6, .wake_max_s = 120e-6, .stall_probability = 0.0,
+                                     .stall_max_s = 120e-6, .irq_delay_max_s = 20e-6, .spi_start_max_s = 20e-6,
+                                     .spi_return_max_s = 30e-6, .seed = 0};
 };
 
 struct BoardConfig {

@@ -107,7 +107,11 @@ class SimAds1251 {
   double sample_period_s() const noexcept { return period_s_; }
   // The code conversion k (DRDY edge at k * sample_period_s) produced, while
   // it is among the last kHistory conversions.
-  std::optional<std::int32_t> code_of_conversion(std::int64_t k) const noexcept;
+  std::optional<std::int32_t> code_of_conversion(std::int64_t k) const noexcept {
+    const auto slot = static_cast<std::size_t>(k) % kHistory;
+    if (k < 0 || history_index_[slot] != k) return std::nullopt;
+    return history_code_[slot];
+  }
   static constexpr std::size_t kHistory = 64;
 
   // Fault injection (any thread): DRDY never falls (the pin stays HIGH);
@@ -157,10 +161,10 @@ class SimAds1251 {
   // Moves the pin's state machine to t_s (never backwards), queueing the
   // edges on the way.
   void advance_to(double t_s) noexcept;
-  double next_boundary_s() const noexcept;
+  void enter(Segment segment) noexcept;  // and the time it ends
   void cross_boundary() noexcept;
   void set_level(bool level, double t_s) noexcept;
-  void queue_edge(double t_s, bool falling) noexcept;
+  void queue_edge(double t_s, bool falling, double irq_delay_s) noexcept;
   void label_visible(double t_s) noexcept;
   bool dout_bit() const noexcept;
   void shift(double t_s) noexcept;
@@ -187,6 +191,7 @@ class SimAds1251 {
   double t_s_ = 0.0;
   std::int64_t cycle_ = 0;        // conversion k of the last DRDY edge
   Segment segment_ = Segment::drdy_high;
+  double boundary_s_ = 0.0;       // when segment_ ends
   std::uint32_t frame_ = 0;       // conversion k's 24-bit code
   int pointer_ = 0;               // SCLK falling edges since the DRDY edge
   bool level_ = true;
