@@ -50,8 +50,10 @@ TEST_CASE("a device locked through another descriptor is busy, naming the holder
   const Status s = lock_device(second.fd, node.path.string());
   REQUIRE_FALSE(s.ok());
   CHECK(s.error().code() == ErrorCode::busy);
-  CHECK(std::string(s.error().message()) == "'" + node.path.string() + "' is already in use by PID " +
-                                                std::to_string(::getpid()) + " (" + own_name() + ")");
+  char expected[512];
+  std::snprintf(expected, sizeof expected, "'%s' is already in use by PID %d (%s)", node.path.c_str(),
+                static_cast<int>(::getpid()), own_name().c_str());
+  CHECK(std::string(s.error().message()) == expected);
 }
 
 TEST_CASE("the lock goes with the descriptor that held it") {
