@@ -32,11 +32,14 @@ std::unique_ptr<T> take(Result<std::unique_ptr<T>>&& result, DeviceErrors& error
 
 // Push-pull throughout: the E/S drive must actively pull high to enable the
 // OPA548 against its default-off pull-down (docs/BOARD-rpi4.md); a released
-// open-drain output would read as disabled.
+// open-drain output would read as disabled. Outputs are requested low.
+Result<std::unique_ptr<GpiodLine>> request_line(const GpioRef& ref, GpioMode mode) {
+  return GpiodLine::open({.chip = ref.chip, .line = ref.line, .mode = mode, .open_drain = false,
+                          .initial_high = false});
+}
+
 std::unique_ptr<GpiodLine> open_line(const GpioRef& ref, GpioMode mode, DeviceErrors& errors) {
-  return take(GpiodLine::open({.chip = ref.chip, .line = ref.line, .mode = mode, .open_drain = false,
-                               .initial_high = false}),
-              errors);
+  return take(request_line(ref, mode), errors);
 }
 
 // The w1 device must exist now, and an empty id must name exactly one
@@ -139,8 +142,7 @@ SafeOffReport LinuxBoard::safe_off(const LinuxBoardConfig& config) {
     const Error holder = busy(tec_spi) ? tec_spi.error() : rate_spi.error();
     return {holder, holder, holder};
   }
-  auto es = GpiodLine::open({.chip = config.opa548_es.chip, .line = config.opa548_es.line, .mode = GpioMode::output,
-                             .open_drain = false, .initial_high = false});  // requested low: disabled
+  auto es = request_line(config.opa548_es, GpioMode::output);  // requested low: disabled
   if (!es) report.opa548 = es.error();
   if (!tec_spi) {
     report.tec_dac = tec_spi.error();
