@@ -5,6 +5,7 @@
 #include <limits>
 #include <stdexcept>
 #include <string>
+#include <utility>
 
 namespace gyrotc::app {
 namespace {
@@ -100,6 +101,7 @@ void Controller::on_temperature(const hal::TemperatureReading& reading, double n
     good_streak_ = 0;
     return;
   }
+  reading_since_tick_ = true;
   if (reading.temp_c >= l.over_temp_c) set_flag(kFlagOverTempLatched, true);
   if (!have_casing_ || reading.temp_c != casing_c_) {
     changed_at_s_ = now_s;
@@ -146,9 +148,10 @@ void Controller::record_command(double current_a) noexcept {
   drive_hi_a_ = std::max(drive_hi_a_, current_a);
 }
 
-TecCommand Controller::off(double now_s) noexcept {
+TecCommand Controller::off(double now_s, double resume_a) noexcept {
   set_flag(kFlagTecOff, true);
   set_flag(kFlagTecSaturated, false);
+  if (pid_running_) resume_a_ = resume_a;
   pid_running_ = false;
   pid_.reset(0.0);
   record_command(0.0);
@@ -174,12 +177,29 @@ TecCommand Controller::on_pid_tick(double now_s) noexcept {
     good_streak_ = 0;
   }
 
-  const std::uint32_t stop = kTempFaults | kFlagOverTempLatched | kFlagOpa548Thermal;
-  if ((flags_ & stop) != 0 || !config_.pid_enabled) return off(now_s);
+  const bool new_reading = std::exchange(reading_since_tick_, false);
+  // A reading that went stale (invalid ones only, since the last valid one)
+  // ends a hold: off, to restart where the PID was once readings are good.
+  if ((flags_ & kFlagTempStale) != 0) return off(now_s, pid_.output());
+  const std::uint32_t stop = kFlagTempStuck | kFlagOverTempLatched | kFlagOpa548Thermal;
+  if ((flags_ & stop) != 0 || !config_.pid_enabled) return off(now_s, 0.0);
+  if ((flags_ & kFlagTempInvalid) != 0) {
+    if (!pid_running_) return off(now_s, resume_a_);  // not recovered yet (M good readings)
+    // Glitch tolerance: no valid reading this period, only invalid ones.
+    // Hold the last current (no step on old news) until the reading is stale.
+    if (!new_reading) {
+      record_command(command_.current_a);
+      command_.flags = flags_;
+      last_tick_s_ = now_s;
+      return command_;
+    }
+  }
 
   const double dt_s = pid_running_ ? now_s - last_tick_s_ : 0.0;
   if (!pid_running_) {
-    pid_.reset(0.0);
+    // Bumpless: the integral restarts where the PID was when a sensor fault
+    // (stale) stopped it, at 0 after any other stop; no derivative kick.
+    pid_.reset(std::exchange(resume_a_, 0.0));
     active_setpoint_c_ = config_.setpoint_ramp_c_per_s > 0.0 ? casing_c_ : config_.setpoint_c;
     pid_running_ = true;
   }
@@ -202,8 +222,8 @@ TecCommand Controller::on_pid_tick(double now_s) noexcept {
 }
 
 TecCommand run_pid_tick(Controller& controller, hal::TecDriver& tec, double now_s) noexcept {
-  const auto thermal = tec.thermal_flag();
-  controller.on_opa548_thermal(!thermal.ok() || thermal.value(), now_s);
+  const auto thermal = tec.thermal_status();
+  controller.on_opa548_thermal(!thermal.ok() || thermal.value() == hal::ThermalStatus::shutdown, now_s);
   const TecCommand command = controller.on_pid_tick(now_s);
   if (command.enable && tec.set_current_a(command.current_a)) {
     (void)tec.enable(true);

@@ -77,18 +77,97 @@ TEST_CASE("no reading for more than 3 PID periods turns the TEC off, flags it an
   CHECK((cmd.flags & kFlagTempStale) == 0);
 }
 
-TEST_CASE("an invalid reading turns the TEC off at the next tick and M good readings recover") {
+// One reading per PID period, just before the tick: the case where a
+// glitch leaves a period with no valid reading at all.
+struct PeriodHarness {
+  Compensator compensator{BiasModel::paper_reference()};
+  Controller controller{ControllerConfig{}, compensator};
+  double now_s = 0.0;
+  TecCommand period(const TemperatureReading& reading) {
+    now_s += 2.0;
+    controller.on_temperature(reading, now_s);
+    return controller.on_pid_tick(now_s);
+  }
+  TecCommand good_period(double temp_c) { return period(good(temp_c, now_s + 2.0 - 0.75)); }
+};
+
+TEST_CASE("a single invalid reading changes the TEC current by less than one PID step") {
+  PeriodHarness h;
+  // Settling below the setpoint: the integral moves the current every period.
+  for (int i = 0; i < 5; ++i) h.good_period(54.8);
+  const TecCommand before = h.good_period(54.8);
+  const TecCommand reference = h.good_period(54.8);
+  const double pid_step_a = std::fabs(reference.current_a - before.current_a);
+  REQUIRE(pid_step_a > 1e-3);
+  const TecCommand glitch = h.period(bad(h.now_s + 1.25, TempFault::crc));
+  CHECK(glitch.enable);
+  CHECK((glitch.flags & kFlagTempInvalid) != 0);
+  CHECK((glitch.flags & kFlagTecOff) == 0);
+  CHECK(std::fabs(glitch.current_a - reference.current_a) < pid_step_a);  // held
+  // The next valid reading steps the PID from there, not from 0 A.
+  const TecCommand after = h.good_period(54.8);
+  CHECK(after.enable);
+  CHECK(std::fabs(after.current_a - glitch.current_a) < 1.5 * pid_step_a);
+}
+
+TEST_CASE("invalid readings hold the TEC until the stale limit, then turn it off, flagged") {
+  PeriodHarness h;
+  for (int i = 0; i < 10; ++i) h.good_period(54.0);
+  const double held_a = h.controller.last_command().current_a;
+  // 3 PID periods of stale_periods: the 3rd invalid period is still within.
+  for (int i = 0; i < 3; ++i) {
+    const TecCommand cmd = h.period(bad(h.now_s + 1.25, i == 0 ? TempFault::power_on_value : TempFault::crc));
+    CHECK(cmd.enable);
+    CHECK(cmd.current_a == held_a);
+  }
+  const TecCommand off = h.period(bad(h.now_s + 1.25, TempFault::crc));
+  CHECK_FALSE(off.enable);
+  CHECK(off.current_a == 0.0);
+  CHECK((off.flags & (kFlagTempStale | kFlagTempInvalid | kFlagTecOff)) ==
+        (kFlagTempStale | kFlagTempInvalid | kFlagTecOff));
+}
+
+TEST_CASE("after a sensor fault the PID restarts bumplessly where it stopped, once M good readings came") {
+  PeriodHarness h;
+  for (int i = 0; i < 40; ++i) h.good_period(54.9);
+  const double held_a = h.controller.last_command().current_a;
+  REQUIRE(std::fabs(held_a) > 0.05);
+  for (int i = 0; i < 5; ++i) h.period(bad(h.now_s + 1.25, TempFault::crc));
+  REQUIRE_FALSE(h.controller.last_command().enable);
+  TecCommand cmd = h.good_period(54.9);
+  cmd = h.good_period(54.9);
+  CHECK_FALSE(cmd.enable);  // two good readings: not yet (M = 3)
+  cmd = h.good_period(54.9);
+  CHECK(cmd.enable);
+  CHECK((cmd.flags & (kFlagTempInvalid | kFlagTempStale)) == 0);
+  // From the held current (plus the proportional term of the same error), not from 0 A.
+  CHECK(cmd.current_a == Approx(held_a).margin(0.1));
+}
+
+TEST_CASE("with invalid readings between valid ones the PID keeps regulating on the valid ones") {
   Harness h;
   h.run_for(10.0, 54.0);
-  h.controller.on_temperature(bad(h.now_s, TempFault::crc), h.now_s);
-  TecCommand cmd = h.controller.on_pid_tick(h.now_s);
-  CHECK_FALSE(cmd.enable);
-  CHECK((cmd.flags & kFlagTempInvalid) != 0);
-  // 85 C power-on value flagged by the driver, and an out-of-range value.
+  for (int i = 0; i < 20; ++i) {
+    h.now_s += 1.0;
+    h.controller.on_temperature(bad(h.now_s, TempFault::crc), h.now_s);  // every other reading: a flaky bus
+    h.now_s += 1.0;
+    h.controller.on_temperature(good(50.0, h.now_s - 0.75), h.now_s);
+    (void)h.controller.on_pid_tick(h.now_s);
+  }
+  const TecCommand cmd = h.controller.last_command();
+  CHECK(cmd.enable);
+  CHECK(cmd.current_a > 0.5);  // heating towards 55 C from a casing at 50 C
+  CHECK((cmd.flags & kFlagTempInvalid) != 0);  // never M good readings in a row
+}
+
+TEST_CASE("85 C power-on and out-of-range readings are invalid, never the controller's input") {
+  Harness h;
+  h.run_for(10.0, 54.0);
   h.controller.on_temperature(bad(h.now_s, TempFault::power_on_value), h.now_s);
   h.controller.on_temperature(good(200.0, h.now_s), h.now_s);
-  CHECK_FALSE(h.controller.on_pid_tick(h.now_s).enable);
-  cmd = h.run_for(4.0, 54.0);
+  CHECK((h.controller.flags() & kFlagTempInvalid) != 0);
+  CHECK(h.controller.last_casing_c() != 200.0);
+  const TecCommand cmd = h.run_for(6.0, 54.0);
   CHECK(cmd.enable);
   CHECK((cmd.flags & kFlagTempInvalid) == 0);
 }

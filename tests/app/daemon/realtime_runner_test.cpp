@@ -3,12 +3,14 @@
 #include <fcntl.h>
 #include <unistd.h>
 
+#include <atomic>
 #include <chrono>
 #include <cstdio>
 #include <iterator>
 #include <cmath>
 #include <fstream>
 #include <string>
+#include <string_view>
 #include <thread>
 #include <vector>
 
@@ -199,6 +201,53 @@ TEST_CASE("SIGTERM to a running `gyrotc run` on the simulated board: exit 0, TEC
   for (const char* key : {"min", "avg", "p50", "p99", "max"}) CHECK(j.at("latency_us").contains(key));
   CHECK(j.contains("overruns"));
   CHECK(j.contains("missed_drdy"));
+  for (const char* key : {"late_reads", "spurious_edges", "missed_conversions"}) CHECK(j.contains(key));
+  CHECK(j.at("sim_adc").at("accepted_samples").get<std::uint64_t>() == j.at("samples").get<std::uint64_t>());
+  CHECK(j.at("sim_adc").at("accepted_corrupted_samples").get<std::uint64_t>() == 0);
+}
+
+TEST_CASE("stop puts the TEC in the safe state without waiting for a DS18B20 read in progress") {
+  // A casing sensor whose conversion hangs until released, and a TEC stage
+  // that notes when it was made safe.
+  struct HangingSensor final : hal::TemperatureSensor {
+    std::atomic<bool> reading{false};
+    std::atomic<bool> release{false};
+    hal::TemperatureReading do_read() override {
+      reading = true;
+      while (!release) std::this_thread::sleep_for(std::chrono::milliseconds(5));
+      return {};
+    }
+    std::string_view do_name() const noexcept override { return "hanging"; }
+  } sensor;
+  struct NotingTec final : hal::TecDriver {
+    explicit NotingTec(hal::TecDriver& tec) : inner(tec) {}
+    hal::TecDriver& inner;
+    std::atomic<bool> made_safe{false};
+    hal::Status do_set_current_a(double a) noexcept override { return inner.set_current_a(a); }
+    hal::Status do_enable(bool on) noexcept override { return inner.enable(on); }
+    hal::Result<hal::ThermalStatus> do_thermal_status() noexcept override { return inner.thermal_status(); }
+    bool do_senses_thermal() const noexcept override { return inner.senses_thermal(); }
+    hal::Status do_safe_off() noexcept override {
+      made_safe = true;
+      return inner.safe_off();
+    }
+  };
+  SimRig rig;
+  hal::Board sim = rig.instance.board();
+  NotingTec tec(sim.tec);
+  const hal::Board board{sim.adc, sensor, nullptr, sim.rate_dac, tec, sim.clock};
+  RealtimeRunner runner(board, rig.controller, rig.options(0.0, true));
+  runner.start();
+  for (int i = 0; i < 200 && !sensor.reading; ++i) std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  REQUIRE(sensor.reading);
+  tec.made_safe = false;  // start() made it safe once
+  std::thread stopper([&runner] { runner.stop(); });
+  for (int i = 0; i < 200 && !tec.made_safe; ++i) std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  CHECK(tec.made_safe);       // safe while the sensor thread still hangs in its read
+  CHECK_FALSE(sensor.release);
+  CHECK(rig.tec_off());
+  sensor.release = true;
+  stopper.join();
 }
 
 TEST_CASE("SIGHUP reloads the calibration file, an invalid one is rejected, logged, and the run goes on") {

@@ -8,7 +8,7 @@
 #include "gyrotc/hal/devices.hpp"
 #include "gyrotc/hal/temperature_sensor.hpp"
 
-// The controller both runners share (ARCHITECTURE.md, "One controller, two
+// The controller both runners share (docs/ARCHITECTURE.md, "One controller, two
 // runners"): per-sample compensation, the 2 s PID on the TEC, and the
 // fail-safe decisions of issue 6. It knows no threads, clocks or devices: the
 // runner hands it samples, readings and ticks with their times and applies
@@ -18,7 +18,7 @@ namespace gyrotc::app {
 // Flags reported with every sample and TEC command (bitmask).
 enum ControllerFlag : std::uint32_t {
   kFlagTempStale = 1u << 0,       // no valid casing reading for > stale_periods PID periods
-  kFlagTempInvalid = 1u << 1,     // the last casing reading was invalid (CRC, 85 C reset, range)
+  kFlagTempInvalid = 1u << 1,     // an invalid casing reading (CRC, 85 C reset, range) since the last M good ones
   kFlagTempStuck = 1u << 2,       // the casing reading has not changed while the TEC drives
   kFlagOverTempLatched = 1u << 3, // casing over-temperature: TEC off until restart
   kFlagOpa548Thermal = 1u << 4,   // the OPA548 reports thermal shutdown
@@ -101,7 +101,12 @@ class Controller {
   // The OPA548 E/S thermal flag as last read (reads false while disabled):
   // a true flag turns the TEC off for at least opa548_cooldown_s.
   void on_opa548_thermal(bool in_shutdown, double now_s) noexcept;
-  // Every PID period: fail-safe decisions, then the PID.
+  // Every PID period: fail-safe decisions, then the PID. Invalid casing
+  // readings alone do not stop the TEC: a period with no valid reading holds
+  // the last current (a CRC glitch is common on w1-gpio, and 0 A would be a
+  // thermal step into the gyro bias); once no valid reading came for
+  // stale_periods the TEC goes off, and after recovery_readings good ones the
+  // PID restarts bumplessly from where it stopped.
   TecCommand on_pid_tick(double now_s) noexcept;
 
   // Calibration reload: the next on_sample uses the new compensator. The
@@ -126,7 +131,8 @@ class Controller {
 
   void set_flag(std::uint32_t flag, bool on) noexcept;
   void record_command(double current_a) noexcept;
-  TecCommand off(double now_s) noexcept;
+  // TEC off; resume_a is where the PID's integral restarts (if it was running).
+  TecCommand off(double now_s, double resume_a) noexcept;
 
   ControllerConfig config_;
   std::atomic<const fit::Compensator*> compensator_;
@@ -159,13 +165,16 @@ class Controller {
   double opa548_off_until_s_ = 0.0;
 
   bool pid_running_ = false;
+  bool reading_since_tick_ = false;  // a valid casing reading came since the last tick
+  double resume_a_ = 0.0;            // the PID output to restart from
   double active_setpoint_c_;
   double last_tick_s_ = 0.0;
   TecCommand command_;
 };
 
-// One PID tick as both runners do it: the OPA548 thermal flag in (a flag that
-// cannot be read counts as a shutdown: the safe side), the controller's
+// One PID tick as both runners do it: the OPA548 thermal state in (a state
+// that cannot be read counts as a shutdown: the safe side; an unknown one,
+// without a sense line or while disabled, as none), the controller's
 // command out to the TEC stage. A current the DAC did not take leaves the TEC
 // off rather than enabled at an unknown current.
 TecCommand run_pid_tick(Controller& controller, hal::TecDriver& tec, double now_s) noexcept;

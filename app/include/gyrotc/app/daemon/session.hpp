@@ -25,8 +25,10 @@ struct SessionOptions {
 // InputError / RuntimeFailure, the board safe-off done.
 void run_session(const SessionOptions& options);
 
-// The TEC DAC to 0 A and the OPA548 disabled on the configured board.
-// Throws RuntimeFailure when the devices cannot be opened or written.
+// The TEC DAC to 0 A and the OPA548 disabled on the configured board, the
+// rate DAC to mid-scale if it can be (a warning if not). Only those devices
+// are opened: a missing sensor or ADC does not matter. Throws RuntimeFailure
+// unless the TEC path was made safe (or when another gyrotc holds the board).
 void safe_off_board(const DaemonConfig& config);
 
 // The CSV columns of OutputRows (also the header line): what `gyrotc fit`
