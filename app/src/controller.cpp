@@ -24,6 +24,11 @@ void validate(const ControllerConfig& c) {
   require(std::isfinite(c.feed_forward_a_per_c), "feed_forward_a_per_c", "must be a number");
   require(std::isfinite(c.setpoint_ramp_c_per_s) && c.setpoint_ramp_c_per_s >= 0.0,
           "setpoint_ramp_c_per_s", "must be zero or positive");
+  if (c.rail.known) {
+    require(std::isfinite(c.rail.pos_a) && std::isfinite(c.rail.neg_a) && c.rail.neg_a < c.rail.pos_a, "rail",
+            "neg_a must be below pos_a");
+    require(std::isfinite(c.rail.a_per_c) && c.rail.a_per_c >= 0.0, "rail.a_per_c", "must be zero or positive");
+  }
   require(std::isfinite(c.rate_dac_vref_v) && c.rate_dac_vref_v > 0.0, "rate_dac_vref_v",
           "must be positive");
   require(std::isfinite(c.rate_out_v_per_dps) && c.rate_out_v_per_dps > 0.0, "rate_out_v_per_dps",
@@ -175,7 +180,8 @@ TecCommand Controller::on_pid_tick(double now_s) noexcept {
   }
 
   const std::uint32_t stop = kTempFaults | kFlagOverTempLatched | kFlagOpa548Thermal;
-  if ((flags_ & stop) != 0 || !config_.pid_enabled) return off(now_s);
+  if ((flags_ & stop) != 0 || !config_.pid_enabled || program_finished_) return off(now_s);
+  if (program_ != nullptr) return program_tick(now_s);
 
   const double dt_s = pid_running_ ? now_s - last_tick_s_ : 0.0;
   if (!pid_running_) {
@@ -189,16 +195,63 @@ TecCommand Controller::on_pid_tick(double now_s) noexcept {
   } else {
     active_setpoint_c_ = config_.setpoint_c;
   }
-  const double u = pid_.step(casing_c_, active_setpoint_c_);
   const double ff =
       have_ambient_ ? config_.feed_forward_a_per_c * (config_.setpoint_c - ambient_c_) : 0.0;
-  const double current_a = std::clamp(u + ff, config_.pid.out_min, config_.pid.out_max);
+  double min_a = 0.0;
+  double max_a = 0.0;
+  applied_limits(min_a, max_a);
+  // Anti-windup on the current applied (issue 22): the PID's share may use
+  // what the feed-forward leaves of the stage's range, no more.
+  const double u = pid_.step(casing_c_, active_setpoint_c_, min_a - ff, max_a - ff);
+  return drive(std::clamp(u + ff, min_a, max_a), pid_.saturated(), now_s);
+}
+
+void Controller::applied_limits(double& min_a, double& max_a) const noexcept {
+  min_a = config_.pid.out_min;
+  max_a = config_.pid.out_max;
+  if (config_.rail.known) {
+    const double dt_c = have_ambient_ ? casing_c_ - ambient_c_ : 0.0;
+    max_a = std::min(max_a, config_.rail.pos_a - config_.rail.a_per_c * dt_c);
+    min_a = std::max(min_a, config_.rail.neg_a - config_.rail.a_per_c * dt_c);
+    max_a = std::max(max_a, min_a);
+  }
+}
+
+TecCommand Controller::drive(double current_a, bool saturated, double now_s) noexcept {
   set_flag(kFlagTecOff, false);
-  set_flag(kFlagTecSaturated, pid_.saturated() || current_a != u + ff);
+  set_flag(kFlagTecSaturated, saturated);
   record_command(current_a);
   command_ = TecCommand{current_a, true, flags_};
   last_tick_s_ = now_s;
   return command_;
+}
+
+void Controller::run_program(control::TecProgram* program) noexcept {
+  program_ = program;
+  program_started_ = false;
+  program_finished_ = false;
+  pid_running_ = false;
+}
+
+TecCommand Controller::program_tick(double now_s) noexcept {
+  if (!program_started_) {
+    program_started_ = true;
+    program_start_s_ = now_s;
+  }
+  control::TecProgramInput in;
+  in.time_s = now_s - program_start_s_;
+  in.casing_c = casing_c_;
+  in.ambient_c = have_ambient_ ? ambient_c_ : std::numeric_limits<double>::quiet_NaN();
+  in.setpoint_c = config_.setpoint_c;
+  applied_limits(in.min_a, in.max_a);
+  active_setpoint_c_ = config_.setpoint_c;
+  const control::TecProgramOutput out = program_->next(in);
+  if (out.finished || !std::isfinite(out.current_a)) {
+    program_finished_ = true;
+    return off(now_s);
+  }
+  const double current_a = std::clamp(out.current_a, in.min_a, in.max_a);
+  return drive(current_a, current_a != out.current_a, now_s);
 }
 
 TecCommand run_pid_tick(Controller& controller, hal::TecDriver& tec, double now_s) noexcept {

@@ -4,6 +4,7 @@
 #include <cstdint>
 
 #include "gyrotc/algorithms/control/pid.hpp"
+#include "gyrotc/algorithms/control/tec_program.hpp"
 #include "gyrotc/algorithms/fit/compensator.hpp"
 #include "gyrotc/hal/devices.hpp"
 #include "gyrotc/hal/temperature_sensor.hpp"
@@ -53,6 +54,23 @@ struct FailSafeLimits {
   double max_valid_c = 125.0;
 };
 
+// The OPA548 stage's output swing (issue 22): the TEC voltage S dT + I R must
+// stay inside the rails, so the current the stage can apply falls as the
+// casing gets warmer than the other side of the module:
+//   max_a = pos_a - a_per_c * dT,  min_a = neg_a - a_per_c * dT,
+// pos_a = (V+ - headroom) / R, neg_a = (V- + headroom) / R, a_per_c = S / R.
+// dT is taken as casing - ambient reading (0 without an ambient sensor): the
+// shell the module pumps from is not measured, and while heating it is colder
+// than the ambient, so the estimate errs on the side of more current (a
+// stage that clips a little earlier winds the integral up by that little).
+// `gyrotc tune` identifies these from its experiment.
+struct RailLimit {
+  bool known = false;
+  double pos_a = 0.0;
+  double neg_a = 0.0;
+  double a_per_c = 0.0;
+};
+
 struct ControllerConfig {
   double setpoint_c = 55.0;  // seed Section 6: optimal working temperature ~55 C
   control::PidParams pid;    // seed Eq. 17/18 defaults; out_min/out_max = TEC current limits
@@ -63,6 +81,9 @@ struct ControllerConfig {
   double feed_forward_a_per_c = 0.0;
   // Setpoint ramp from the first casing reading (C/s); 0 = a step.
   double setpoint_ramp_c_per_s = 0.0;
+  // The stage's rail limit, when known; the PID's anti-windup and the current
+  // applied respect it as they do out_min/out_max.
+  RailLimit rail;
   // Rate output (AD5060 #1): mid-scale = 0 deg/s.
   double rate_dac_vref_v = 5.0;
   double rate_out_v_per_dps = 0.01;  // +/-250 deg/s over 0..5 V
@@ -101,8 +122,15 @@ class Controller {
   // The OPA548 E/S thermal flag as last read (reads false while disabled):
   // a true flag turns the TEC off for at least opa548_cooldown_s.
   void on_opa548_thermal(bool in_shutdown, double now_s) noexcept;
-  // Every PID period: fail-safe decisions, then the PID.
+  // Every PID period: fail-safe decisions, then the PID (or the programme).
   TecCommand on_pid_tick(double now_s) noexcept;
+  // From the next PID period on, the programme sets the TEC current instead of
+  // the PID, under the same fail-safes and limits, until it says it is
+  // finished; then the TEC stays off. Not owned; nullptr returns to the PID.
+  // Call between PID periods (the runner's thread, or before it starts).
+  void run_program(control::TecProgram* program) noexcept;
+  // The programme has finished (the runner may stop).
+  bool program_finished() const noexcept { return program_finished_; }
 
   // Calibration reload: the next on_sample uses the new compensator. The
   // caller keeps the old one alive until compensator_in_use() is the new one.
@@ -127,6 +155,10 @@ class Controller {
   void set_flag(std::uint32_t flag, bool on) noexcept;
   void record_command(double current_a) noexcept;
   TecCommand off(double now_s) noexcept;
+  TecCommand drive(double current_a, bool saturated, double now_s) noexcept;
+  // The current the stage can apply now: out_min/out_max within the rails.
+  void applied_limits(double& min_a, double& max_a) const noexcept;
+  TecCommand program_tick(double now_s) noexcept;
 
   ControllerConfig config_;
   std::atomic<const fit::Compensator*> compensator_;
@@ -159,6 +191,10 @@ class Controller {
   double opa548_off_until_s_ = 0.0;
 
   bool pid_running_ = false;
+  control::TecProgram* program_ = nullptr;
+  bool program_started_ = false;
+  double program_start_s_ = 0.0;
+  bool program_finished_ = false;
   double active_setpoint_c_;
   double last_tick_s_ = 0.0;
   TecCommand command_;
