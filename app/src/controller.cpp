@@ -180,7 +180,7 @@ TecCommand Controller::on_pid_tick(double now_s) noexcept {
   }
 
   const std::uint32_t stop = kTempFaults | kFlagOverTempLatched | kFlagOpa548Thermal;
-  if ((flags_ & stop) != 0 || !config_.pid_enabled || program_finished_) return off(now_s);
+  if ((flags_ & stop) != 0 || !config_.pid_enabled || program_finished()) return off(now_s);
   if (program_ != nullptr) return program_tick(now_s);
 
   const double dt_s = pid_running_ ? now_s - last_tick_s_ : 0.0;
@@ -195,26 +195,16 @@ TecCommand Controller::on_pid_tick(double now_s) noexcept {
   } else {
     active_setpoint_c_ = config_.setpoint_c;
   }
-  const double ff =
-      have_ambient_ ? config_.feed_forward_a_per_c * (config_.setpoint_c - ambient_c_) : 0.0;
-  double min_a = 0.0;
-  double max_a = 0.0;
-  applied_limits(min_a, max_a);
-  // Anti-windup on the current applied (issue 22): the PID's share may use
-  // what the feed-forward leaves of the stage's range, no more.
-  const double u = pid_.step(casing_c_, active_setpoint_c_, min_a - ff, max_a - ff);
-  return drive(std::clamp(u + ff, min_a, max_a), pid_.saturated(), now_s);
+  const double ff = control::feed_forward_a(config_.feed_forward_a_per_c, config_.setpoint_c,
+                                            have_ambient_ ? ambient_c_ : std::numeric_limits<double>::quiet_NaN());
+  // Anti-windup on the current applied (issue 22): control/tec_law.hpp.
+  const double current_a = control::pid_current_a(pid_, casing_c_, active_setpoint_c_, ff, applied_range());
+  return drive(current_a, pid_.saturated(), now_s);
 }
 
-void Controller::applied_limits(double& min_a, double& max_a) const noexcept {
-  min_a = config_.pid.out_min;
-  max_a = config_.pid.out_max;
-  if (config_.rail.known) {
-    const double dt_c = have_ambient_ ? casing_c_ - ambient_c_ : 0.0;
-    max_a = std::min(max_a, config_.rail.pos_a - config_.rail.a_per_c * dt_c);
-    min_a = std::max(min_a, config_.rail.neg_a - config_.rail.a_per_c * dt_c);
-    max_a = std::max(max_a, min_a);
-  }
+control::CurrentRange Controller::applied_range() const noexcept {
+  return control::applied_range(config_.pid.out_min, config_.pid.out_max, config_.rail, casing_c_,
+                                have_ambient_ ? ambient_c_ : std::numeric_limits<double>::quiet_NaN());
 }
 
 TecCommand Controller::drive(double current_a, bool saturated, double now_s) noexcept {
@@ -229,7 +219,7 @@ TecCommand Controller::drive(double current_a, bool saturated, double now_s) noe
 void Controller::run_program(control::TecProgram* program) noexcept {
   program_ = program;
   program_started_ = false;
-  program_finished_ = false;
+  program_finished_.store(false, std::memory_order_release);
   pid_running_ = false;
 }
 
@@ -243,11 +233,13 @@ TecCommand Controller::program_tick(double now_s) noexcept {
   in.casing_c = casing_c_;
   in.ambient_c = have_ambient_ ? ambient_c_ : std::numeric_limits<double>::quiet_NaN();
   in.setpoint_c = config_.setpoint_c;
-  applied_limits(in.min_a, in.max_a);
+  const control::CurrentRange range = applied_range();
+  in.min_a = range.min_a;
+  in.max_a = range.max_a;
   active_setpoint_c_ = config_.setpoint_c;
   const control::TecProgramOutput out = program_->next(in);
   if (out.finished || !std::isfinite(out.current_a)) {
-    program_finished_ = true;
+    program_finished_.store(true, std::memory_order_release);
     return off(now_s);
   }
   const double current_a = std::clamp(out.current_a, in.min_a, in.max_a);

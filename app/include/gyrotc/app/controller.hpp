@@ -4,6 +4,7 @@
 #include <cstdint>
 
 #include "gyrotc/algorithms/control/pid.hpp"
+#include "gyrotc/algorithms/control/tec_law.hpp"
 #include "gyrotc/algorithms/control/tec_program.hpp"
 #include "gyrotc/algorithms/fit/compensator.hpp"
 #include "gyrotc/hal/devices.hpp"
@@ -54,22 +55,8 @@ struct FailSafeLimits {
   double max_valid_c = 125.0;
 };
 
-// The OPA548 stage's output swing (issue 22): the TEC voltage S dT + I R must
-// stay inside the rails, so the current the stage can apply falls as the
-// casing gets warmer than the other side of the module:
-//   max_a = pos_a - a_per_c * dT,  min_a = neg_a - a_per_c * dT,
-// pos_a = (V+ - headroom) / R, neg_a = (V- + headroom) / R, a_per_c = S / R.
-// dT is taken as casing - ambient reading (0 without an ambient sensor): the
-// shell the module pumps from is not measured, and while heating it is colder
-// than the ambient, so the estimate errs on the side of more current (a
-// stage that clips a little earlier winds the integral up by that little).
-// `gyrotc tune` identifies these from its experiment.
-struct RailLimit {
-  bool known = false;
-  double pos_a = 0.0;
-  double neg_a = 0.0;
-  double a_per_c = 0.0;
-};
+// The stage's rail limit (issue 22): control/tec_law.hpp.
+using control::RailLimit;
 
 struct ControllerConfig {
   double setpoint_c = 55.0;  // seed Section 6: optimal working temperature ~55 C
@@ -129,8 +116,8 @@ class Controller {
   // finished; then the TEC stays off. Not owned; nullptr returns to the PID.
   // Call between PID periods (the runner's thread, or before it starts).
   void run_program(control::TecProgram* program) noexcept;
-  // The programme has finished (the runner may stop).
-  bool program_finished() const noexcept { return program_finished_; }
+  // The programme has finished (the runner may stop). Any thread.
+  bool program_finished() const noexcept { return program_finished_.load(std::memory_order_acquire); }
 
   // Calibration reload: the next on_sample uses the new compensator. The
   // caller keeps the old one alive until compensator_in_use() is the new one.
@@ -157,7 +144,7 @@ class Controller {
   TecCommand off(double now_s) noexcept;
   TecCommand drive(double current_a, bool saturated, double now_s) noexcept;
   // The current the stage can apply now: out_min/out_max within the rails.
-  void applied_limits(double& min_a, double& max_a) const noexcept;
+  control::CurrentRange applied_range() const noexcept;
   TecCommand program_tick(double now_s) noexcept;
 
   ControllerConfig config_;
@@ -194,7 +181,7 @@ class Controller {
   control::TecProgram* program_ = nullptr;
   bool program_started_ = false;
   double program_start_s_ = 0.0;
-  bool program_finished_ = false;
+  std::atomic<bool> program_finished_{false};
   double active_setpoint_c_;
   double last_tick_s_ = 0.0;
   TecCommand command_;

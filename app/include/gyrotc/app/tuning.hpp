@@ -1,0 +1,49 @@
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "gyrotc/algorithms/tune/controller_design.hpp"
+#include "gyrotc/algorithms/tune/thermal_identify.hpp"
+#include "gyrotc/app/controller_file.hpp"
+
+// What `gyrotc tune` does behind its command line (issue 23): read the
+// unit's identification record, identify its thermal model, design its
+// controller, and put both into a controller file and a report. The robustness
+// suite (tools/tune_suite) and the benchmark call the same functions.
+namespace gyrotc::app {
+
+struct TuneInput {
+  tune::TuneRecord record;
+  double setpoint_c = 55.0;  // the record's setpoint_c column when it has one
+  std::string source;        // the file, for messages
+};
+
+// Reads time_s, sensor_c, tec_a and, when present, ambient_c ("nan" before
+// the first ambient reading) and setpoint_c; nothing else (a simulated
+// record's casing_c, die_c and tec_v are the plant's truth, which a board
+// does not have). InputError naming the file: a missing column (and what
+// tune needs), a bad cell (its line).
+TuneInput read_tune_record(const std::string& path);
+
+struct TuneResult {
+  tune::ThermalFit fit;
+  tune::DesignSpec spec;
+  tune::ControllerDesign design;
+  ControllerFile controller;
+  std::vector<std::string> warnings;
+  double identify_s = 0.0;
+  double design_s = 0.0;
+};
+
+// InputError naming the source when the record cannot be tuned from (what is
+// missing: excitation, response, a continuous record, ...).
+TuneResult tune_from_record(const TuneInput& input);
+
+// The [identified] and [design] tables written below the controller.
+std::string tune_informational_toml(const TuneResult& result, const std::string& source);
+nlohmann::json tune_json(const TuneResult& result);
+
+}  // namespace gyrotc::app
