@@ -174,6 +174,21 @@ TuneResult tune_from_record(const TuneInput& input) {
   return r;
 }
 
+double plant_minimum_warm_up_s(const model::PlantParams& params, double from_c, double target_c) {
+  model::PlantParams p = params;
+  p.initial_temp_c = from_c;
+  model::Plant plant(p, 1);
+  plant.set_ambient_c(from_c);
+  plant.set_tec_enabled(true);
+  plant.set_tec_drive_v(0.5 * p.dac_vref_v + p.current_limit_a / p.gain_a_per_v);
+  constexpr double kStepS = 0.1;
+  for (double t = 0.0; t < 4.0 * 3600.0; t += kStepS) {
+    if (plant.casing_c() >= target_c) return t;
+    plant.advance(kStepS);
+  }
+  return -1.0;
+}
+
 std::string tune_informational_toml(const TuneResult& r, const std::string& source) {
   std::string out = "[identified]          # gyrotc tune from " + source + " (informational, not read)\n";
   for (const auto& e : r.fit.estimates) {

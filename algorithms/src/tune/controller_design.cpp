@@ -215,22 +215,48 @@ double minimum_settle_s(const ThermalModel& m, const DesignSpec& spec) {
   return -1.0;
 }
 
-ControllerDesign design_controller(const ThermalModel& m, const DesignSpec& spec) {
+ControllerDesign design_controller(const ThermalModel& m, const DesignSpec& requested) {
   ControllerDesign d;
-  const double limit_a = std::max(spec.max_a, -spec.min_a);
-  for (double ta = spec.rated_low_c; ta <= spec.rated_high_c + 1e-9; ta += 5.0) {
+  const double limit_a = std::max(requested.max_a, -requested.min_a);
+  for (double ta = requested.rated_low_c; ta <= requested.rated_high_c + 1e-9; ta += 5.0) {
     d.holding_ambient_c.push_back(ta);
-    d.holding_a.push_back(holding_current_a(m, spec.setpoint_c, ta, limit_a));
+    d.holding_a.push_back(holding_current_a(m, requested.setpoint_c, ta, limit_a));
   }
-  const double hold_room = holding_current_a(m, spec.setpoint_c, spec.room_c, limit_a);
-  if (!std::isfinite(hold_room) || hold_room > spec.max_a || hold_room < spec.min_a) {
+  const double hold_room = holding_current_a(m, requested.setpoint_c, requested.room_c, limit_a);
+  if (!std::isfinite(hold_room) || hold_room > requested.max_a || hold_room < requested.min_a) {
     throw std::invalid_argument("the identified unit cannot hold the setpoint at the record's ambient within its "
                                 "current limits: nothing to design a loop for");
   }
+  // Design for the ambients the unit can hold: beyond them no gains help, and
+  // an error the stage cannot avoid would decide the gains at random.
+  DesignSpec spec = requested;
+  for (std::size_t j = 0; j < d.holding_ambient_c.size(); ++j) {
+    const double ta = d.holding_ambient_c[j];
+    if (std::isfinite(d.holding_a[j])) continue;
+    if (ta < spec.room_c) spec.rated_low_c = std::max(spec.rated_low_c, ta + 5.0);
+    if (ta > spec.room_c) spec.rated_high_c = std::min(spec.rated_high_c, ta - 5.0);
+  }
+  spec.rated_low_c = std::min(spec.rated_low_c, spec.room_c);
+  spec.rated_high_c = std::max(spec.rated_high_c, spec.room_c);
+  spec.band_low_c = std::max(spec.band_low_c, spec.rated_low_c);
+  spec.band_high_c = std::min(spec.band_high_c, spec.rated_high_c);
   if (spec.rail_known) {
+    // The Controller takes the ambient reading for the shell it cannot see.
+    // Holding a large difference the conduction through the module warms the
+    // shell above the ambient, and the stage gives more than that estimate:
+    // shift the rail by the largest such excess (and 1 K), so the estimate
+    // errs on the side of more current (a small windup) and never withholds
+    // current the stage has.
+    double excess_k = 0.0;
+    for (std::size_t j = 0; j < d.holding_ambient_c.size(); ++j) {
+      if (!std::isfinite(d.holding_a[j])) continue;
+      const ThermalState x = steady_state(m, d.holding_a[j], d.holding_ambient_c[j]);
+      excess_k = std::max(excess_k, x.shell_c - d.holding_ambient_c[j]);
+    }
+    const double shift_a = m.rail_a_per_c() * (excess_k + 1.0);
     d.rail.known = true;
-    d.rail.pos_a = m.rail_a;
-    d.rail.neg_a = -m.rail_a;
+    d.rail.pos_a = m.rail_a + shift_a;
+    d.rail.neg_a = -m.rail_a - shift_a;
     d.rail.a_per_c = m.rail_a_per_c();
   }
   // Feed-forward: the holding current's slope against (setpoint - ambient)

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <functional>
 #include <limits>
 #include <stdexcept>
 #include <string>
@@ -27,7 +28,7 @@ constexpr double kNoRailA = 50.0;
 
 // The parameter vector theta (what the fit searches).
 enum Index : std::size_t {
-  kLogPeltier, kLogJoule, kLogLoss, kLogShellRatio, kLogShellTau, kInternal, kDeadTime, kSensorLag,
+  kLogPeltier, kLogJoule, kLogLoss, kLogShellRatio, kLogShellTau, kRestRise, kDelay, kLagShare,
   kLogRail, kCasing0, kShell0, kAmbient, kCount
 };
 
@@ -37,6 +38,14 @@ std::string fmt(const char* format, double a, double b = 0.0, double c = 0.0) {
   return buf;
 }
 
+// Parameters the data pin down each on their own (strongly correlated pairs
+// make the search crawl): the internal heat as the casing's rise above the
+// ambient with the TEC off (not against the loss it is divided by), the
+// sensor's total delay and the share of it that is a lag, and the rail as the
+// current the stage gives at 30 K across the module (not at 0 K, an
+// extrapolation along the slope S/R that the Joule term sets).
+constexpr double kRailReferenceK = 30.0;
+
 ThermalModel model_of(const std::vector<double>& th) {
   ThermalModel m;
   m.peltier_per_a_s = std::exp(th[kLogPeltier]);
@@ -44,21 +53,17 @@ ThermalModel model_of(const std::vector<double>& th) {
   m.loss_per_s = std::exp(th[kLogLoss]);
   m.shell_ratio = std::exp(th[kLogShellRatio]);
   m.shell_tau_s = std::exp(th[kLogShellTau]);
-  m.internal_k_per_s = th[kInternal];
-  m.dead_time_s = th[kDeadTime];
-  m.sensor_lag_s = th[kSensorLag];
-  m.rail_a = std::exp(th[kLogRail]);
+  m.internal_k_per_s = th[kRestRise] * m.loss_per_s;
+  m.sensor_lag_s = th[kLagShare] * th[kDelay];
+  m.dead_time_s = th[kDelay] - m.sensor_lag_s;
+  m.rail_a = std::exp(th[kLogRail]) + kRailReferenceK * m.rail_a_per_c();
   return m;
 }
 
-struct Problem {
-  const TuneRecord& record;
-  bool ambient_measured;
-  std::vector<double> ambient;  // measured, or filled with theta's constant
-  mutable std::vector<double> scratch;
-  mutable std::vector<double> out;
-  mutable std::vector<double> ambient_const;
-};
+// The inverse for the rail: theta's rail parameter for a rail at 0 K.
+double rail_parameter(double rail_a, double peltier, double joule) {
+  return std::log(std::max(0.02, rail_a - kRailReferenceK * peltier / (2.0 * joule)));
+}
 
 void check_record(const TuneRecord& r) {
   const std::size_t n = r.time_s.size();
@@ -121,49 +126,47 @@ void check_record(const TuneRecord& r) {
 
 // A first guess from the one-node heat balance on smoothed derivatives
 // (equation error): dT/dt = a I (T + 273.15) + b I^2 - g_ca (T - Ta) + p,
-// on the rows whose command is not at an extreme (where the rails may clip).
-// Then the rail: on the rows at the largest heating command, the current the
-// balance needs, plus the rails' fall with the temperature difference.
+// on the rows whose command is small enough that no stage clips it (a third
+// of the largest). Then the rail: on the rows with a larger heating command,
+// the current the balance needs where it falls short of the command, plus the
+// rails' fall with the temperature difference.
 std::vector<double> first_guess(const TuneRecord& r, const std::vector<double>& ambient, bool ambient_measured) {
   const std::size_t n = r.time_s.size();
   constexpr std::size_t w = 10;
-  const auto [imin_it, imax_it] = std::minmax_element(r.tec_a.begin(), r.tec_a.end());
-  const double imin = *imin_it;
-  const double imax = *imax_it;
-  auto extreme = [&](double i) { return i >= imax - 0.02 * std::fabs(imax) || i <= imin + 0.02 * std::fabs(imin); };
+  double max_abs = 0.0;
+  for (double i : r.tec_a) max_abs = std::max(max_abs, std::fabs(i));
   double mean_ambient = 0.0;
   for (double a : ambient) mean_ambient += a;
   mean_ambient /= static_cast<double>(n);
 
   struct Row {
     double dtdt, t, i, i2, ta;
-    bool steady_command, at_max;
+    bool steady;  // one command over the window
   };
   std::vector<Row> rows;
+  rows.reserve(n);
   for (std::size_t k = w; k + w < n; ++k) {
     Row row{};
-    bool same = true;
+    row.steady = true;
     for (std::size_t j = k - w; j < k + w; ++j) {
       row.t += r.sensor_c[j];
       row.i += r.tec_a[j];
       row.i2 += r.tec_a[j] * r.tec_a[j];
-      same = same && r.tec_a[j] == r.tec_a[k];
+      row.steady = row.steady && r.tec_a[j] == r.tec_a[k];
     }
     row.t /= 2.0 * w;
     row.i /= 2.0 * w;
     row.i2 /= 2.0 * w;
     row.dtdt = (r.sensor_c[k + w] - r.sensor_c[k - w]) / (r.time_s[k + w] - r.time_s[k - w]);
     row.ta = ambient_measured ? ambient[k] : mean_ambient;
-    row.steady_command = same;
-    row.at_max = same && imax > 0.0 && r.tec_a[k] >= imax - 0.02 * imax;
-    if (!extreme(r.tec_a[k])) rows.push_back(row);
-    else if (row.at_max) rows.push_back(row);
+    rows.push_back(row);
   }
+  const double small_a = max_abs / 3.0;
   Eigen::MatrixXd x(static_cast<Eigen::Index>(rows.size()), 4);
   Eigen::VectorXd y(static_cast<Eigen::Index>(rows.size()));
   Eigen::Index used = 0;
   for (const Row& row : rows) {
-    if (row.at_max) continue;
+    if (std::fabs(row.i) > small_a) continue;
     y(used) = row.dtdt;
     x(used, 0) = row.i * (row.t + kKelvin);
     x(used, 1) = row.i2;
@@ -185,19 +188,17 @@ std::vector<double> first_guess(const TuneRecord& r, const std::vector<double>& 
   }
   const double p = ambient_measured ? c : 0.0;
   const double ta0 = ambient_measured ? mean_ambient : c / g;
-  // The rail: the current the balance needs at the largest command, where it
-  // falls short of the command.
   double rail = kNoRailA;
   double rail_sum = 0.0;
   std::size_t clipped = 0;
   const double s_per_r = a / (2.0 * b);
   for (const Row& row : rows) {
-    if (!row.at_max) continue;
+    if (!row.steady || row.i <= small_a) continue;
     // b I^2 + a (T + K) I - (dT/dt + g (T - Ta) - p) = 0, the positive root.
-    const double q = row.dtdt + g * (row.t - (ambient_measured ? row.ta : ta0)) - p;
+    const double q = row.dtdt + g * (row.t - row.ta) - p;
     const double lin = a * (row.t + kKelvin);
     const double needed = (-lin + std::sqrt(lin * lin + 4.0 * b * q)) / (2.0 * b);
-    if (std::isfinite(needed) && needed < 0.97 * imax) {
+    if (std::isfinite(needed) && needed < 0.95 * row.i) {
       rail_sum += needed + s_per_r * (row.t - row.ta);
       ++clipped;
     }
@@ -206,13 +207,13 @@ std::vector<double> first_guess(const TuneRecord& r, const std::vector<double>& 
   th[kLogPeltier] = std::log(a);
   th[kLogJoule] = std::log(b);
   th[kLogLoss] = std::log(g);
-  th[kInternal] = p;
+  th[kRestRise] = p / g;
   th[kAmbient] = ta0;
-  th[kDeadTime] = 1.5;
-  th[kSensorLag] = 1.0;
+  th[kDelay] = 1.5;
+  th[kLagShare] = 0.3;
   th[kCasing0] = r.sensor_c.front();
   th[kShell0] = 0.5 * (r.sensor_c.front() + ta0);
-  th[kLogRail] = std::log(std::clamp(rail, 0.05, kNoRailA));
+  th[kLogRail] = rail_parameter(std::clamp(rail, 0.05, kNoRailA), a, b);
   return th;
 }
 
@@ -258,9 +259,9 @@ ThermalFit identify_thermal(const TuneRecord& record) {
   bound(kLogLoss, std::log(1e-7), std::log(1e-1));
   bound(kLogShellRatio, std::log(0.01), std::log(1000.0));
   bound(kLogShellTau, std::log(2.0), std::log(5000.0));
-  bound(kInternal, -0.05, 0.05);
-  bound(kDeadTime, 0.0, 15.0);
-  bound(kSensorLag, 0.0, 200.0);
+  bound(kRestRise, -30.0, 60.0);
+  bound(kDelay, 0.0, 200.0);
+  bound(kLagShare, 0.0, 1.0);
   bound(kLogRail, std::log(0.02), std::log(kNoRailA));
   bound(kCasing0, record.sensor_c.front() - 5.0, record.sensor_c.front() + 5.0);
   bound(kShell0, record.sensor_c.front() - 20.0, record.sensor_c.front() + 20.0);
@@ -283,49 +284,74 @@ ThermalFit identify_thermal(const TuneRecord& record) {
   };
   Eigen::VectorXd y(static_cast<Eigen::Index>(n));
   for (std::size_t k = 0; k < n; ++k) y(static_cast<Eigen::Index>(k)) = record.sensor_c[k];
-  // Starting points: the first guess for the TEC and the loss, a spread of
-  // shells, with and without a rail within reach of the commands. The rail
-  // and the shell make the least squares surface rugged: Levenberg-Marquardt
-  // runs from the best few, and the best of those is polished.
-  struct Start {
-    std::vector<double> theta;
-    double sse;
-  };
-  std::vector<Start> starts;
+  // Starting points. The rail clips the current in a way the Joule term can
+  // partly mimic, and the shell is only seen through the casing: the least
+  // squares surface has local minima. So first the best of a grid over the
+  // Joule term and the rail (the shell at a typical guess), then over the
+  // shell and the sensor's delay at that point; Levenberg-Marquardt runs from there and, unless that
+  // fit reaches the DS18B20's quantisation floor, also from the best start
+  // without any rail (the search cannot find a rail it starts far above).
   Eigen::MatrixXd design;
   Eigen::VectorXd offset;
-  for (double rail : {std::exp(start[kLogRail]), kNoRailA}) {
-    for (double ratio : {1.0, 5.0, 25.0}) {
-      for (double tau : {20.0, 80.0, 300.0}) {
-        std::vector<double> th = start;
-        th[kLogShellRatio] = std::log(ratio);
-        th[kLogShellTau] = std::log(tau);
-        th[kLogRail] = std::log(rail);
-        th.resize(k_params);
-        model.evaluate(th, design, offset);
-        const double sse = (y - offset).squaredNorm();
-        starts.push_back({th, std::isfinite(sse) ? sse : std::numeric_limits<double>::infinity()});
+  auto sse_of = [&](const std::vector<double>& th) {
+    model.evaluate(th, design, offset);
+    const double sse = (y - offset).squaredNorm();
+    return std::isfinite(sse) ? sse : std::numeric_limits<double>::infinity();
+  };
+  std::vector<double> base = start;
+  base.resize(k_params);
+  base[kLogShellRatio] = std::log(5.0);
+  base[kLogShellTau] = std::log(80.0);
+  const double rail_guess = model_of(start).rail_a;
+  const double rail_scale = rail_guess < 0.9 * kNoRailA ? rail_guess : std::max(0.05, max_command);
+  std::vector<double> best_rail = base;
+  std::vector<double> best_none = base;
+  double best_rail_sse = std::numeric_limits<double>::infinity();
+  double best_none_sse = std::numeric_limits<double>::infinity();
+  for (double joule : {0.4, 0.63, 1.0, 1.6, 2.5}) {
+    for (double rail : {0.6, 0.75, 0.9, 1.0, 1.15, 0.0}) {
+      std::vector<double> th = base;
+      th[kLogJoule] = start[kLogJoule] + std::log(joule);
+      th[kLogRail] = rail_parameter(rail > 0.0 ? rail * rail_scale : kNoRailA, std::exp(th[kLogPeltier]),
+                                    std::exp(th[kLogJoule]));
+      const double sse = sse_of(th);
+      if (rail > 0.0 && sse < best_rail_sse) {
+        best_rail_sse = sse;
+        best_rail = th;
+      }
+      if (rail == 0.0 && sse < best_none_sse) {
+        best_none_sse = sse;
+        best_none = th;
       }
     }
   }
-  // The best start with the rail guess and the best without any: the
-  // search cannot find a rail it starts far above (no command reaches it).
-  std::sort(starts.begin(), starts.end(), [](const Start& a, const Start& b) { return a.sse < b.sse; });
-  std::stable_partition(starts.begin(), starts.end(),
-                        [&](const Start& s) { return &s == &starts.front(); });
-  for (std::size_t j = 1; j < starts.size(); ++j) {
-    if ((starts[j].theta[kLogRail] == std::log(kNoRailA)) != (starts[0].theta[kLogRail] == std::log(kNoRailA))) {
-      std::swap(starts[1], starts[j]);
-      break;
+  for (std::vector<double>* th : {&best_rail, &best_none}) {
+    std::vector<double> best = *th;
+    double best_sse = sse_of(best);
+    for (double ratio : {1.0, 5.0, 25.0}) {
+      for (double tau : {20.0, 80.0, 300.0}) {
+        for (double delay : {1.5, 10.0, 40.0}) {
+          std::vector<double> trial = *th;
+          trial[kLogShellRatio] = std::log(ratio);
+          trial[kLogShellTau] = std::log(tau);
+          trial[kDelay] = delay;
+          const double sse = sse_of(trial);
+          if (sse < best_sse) {
+            best_sse = sse;
+            best = trial;
+          }
+        }
+      }
     }
+    *th = best;
   }
-  constexpr std::size_t kRuns = 2;
   identify::SeparableFit sf;
   sf.sse = std::numeric_limits<double>::infinity();
   // A fit at the DS18B20's quantisation floor needs no second opinion.
   const double good_sse = 4.0 * fit_quantisation_var() * static_cast<double>(n);
-  for (std::size_t r = 0; r < std::min(kRuns, starts.size()) && !(sf.sse < good_sse); ++r) {
-    model.theta_grid = {starts[r].theta};
+  for (const std::vector<double>* th : {&best_rail, &best_none}) {
+    if (sf.sse < good_sse) break;
+    model.theta_grid = {*th};
     identify::SeparableFit f = identify::fit_separable(y, model);
     if (f.sse < sf.sse) sf = std::move(f);
   }
@@ -382,12 +408,23 @@ ThermalFit identify_thermal(const TuneRecord& record) {
   fit.estimates.push_back(log_estimate("loss_per_s", "1/s", kLogLoss));
   fit.estimates.push_back(log_estimate("shell_ratio", "", kLogShellRatio));
   fit.estimates.push_back(log_estimate("shell_tau_s", "s", kLogShellTau));
-  fit.estimates.push_back(plain_estimate("internal_k_per_s", "K/s", kInternal, std::fabs(fit.theta[kInternal]) + 1e-4));
-  fit.estimates.push_back(plain_estimate("dead_time_s", "s", kDeadTime, 5.0));
-  fit.estimates.push_back(plain_estimate("sensor_lag_s", "s", kSensorLag, 20.0));
+  auto derived_estimate = [&](const char* name, const char* unit, const std::function<double(const ThermalModel&)>& f,
+                              double scale) {
+    Estimate e{name, unit, f(fit.model), std_error_of(fit, f), true, ""};
+    e.determined = e.std_error < scale;
+    if (!e.determined) e.note = "not pinned down by this record";
+    return e;
+  };
+  fit.estimates.push_back(plain_estimate("rest_rise_c", "K", kRestRise, 5.0));
+  fit.estimates.push_back(derived_estimate(
+      "internal_k_per_s", "K/s", [](const ThermalModel& m) { return m.internal_k_per_s; },
+      std::fabs(fit.model.internal_k_per_s) + 1e-4));
+  fit.estimates.push_back(
+      derived_estimate("dead_time_s", "s", [](const ThermalModel& m) { return m.dead_time_s; }, 5.0));
+  fit.estimates.push_back(
+      derived_estimate("sensor_lag_s", "s", [](const ThermalModel& m) { return m.sensor_lag_s; }, 20.0));
   // The rail shows only if a command reached it somewhere.
   {
-    std::vector<double> lagged(n);
     const ThermalModel& m = fit.model;
     ThermalState x = fit.initial;
     for (std::size_t k = 0; k + 1 < n && !fit.rail_reached; ++k) {
@@ -396,7 +433,8 @@ ThermalFit identify_thermal(const TuneRecord& record) {
       x = step(m, x, record.tec_a[k], ambient_measured ? 0.5 * (ambient[k] + ambient[k + 1]) : fit.ambient_c,
                record.time_s[k + 1] - record.time_s[k]);
     }
-    Estimate e = log_estimate("rail_a", "A", kLogRail);
+    Estimate e = derived_estimate("rail_a", "A", [](const ThermalModel& fitted) { return fitted.rail_a; },
+                                  0.5 * fit.model.rail_a);
     if (!fit.rail_reached) {
       e.determined = false;
       e.note = "not reached by the record's commands";

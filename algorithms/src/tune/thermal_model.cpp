@@ -11,6 +11,36 @@ namespace {
 // identified model, and a step longer than the time constant would ring.
 constexpr double kMaxStepS = 2.0;
 
+// The model's rates, computed once for a run of many steps.
+struct Coefficients {
+  double a, b, g, r, e, p, s_per_r, rail;
+};
+
+Coefficients coefficients(const ThermalModel& m) noexcept {
+  return {m.peltier_per_a_s, m.joule_k_per_a2_s, m.casing_shell_per_s(), m.capacity_ratio(),
+          m.shell_ambient_per_s(), m.internal_k_per_s, m.rail_a_per_c(), m.rail_a};
+}
+
+ThermalMatrix matrix(const Coefficients& c, double i, double ambient_c) noexcept {
+  return {c.a * i - c.g,
+          c.g,
+          c.r * c.g,
+          -c.r * c.a * i - c.r * c.g - c.e,
+          c.a * i * kKelvin + c.b * i * i + c.p,
+          c.r * (-c.a * i * kKelvin + c.b * i * i) + c.e * ambient_c};
+}
+
+double applied(const Coefficients& c, const ThermalState& x, double command_a) noexcept {
+  const double shift_a = c.s_per_r * (x.casing_c - x.shell_c);
+  const double hi = c.rail - shift_a;
+  const double lo = -c.rail - shift_a;
+  // A clamp rounded over a few mA (softplus), so that the fit's least squares
+  // see a smooth function of the rail parameters.
+  auto softplus = [](double v) { return v > 30.0 ? v : (v < -30.0 ? 0.0 : std::log1p(std::exp(v))); };
+  constexpr double kRoundA = 0.003;
+  return command_a - kRoundA * softplus((command_a - hi) / kRoundA) + kRoundA * softplus((lo - command_a) / kRoundA);
+}
+
 ThermalState trapezoid(const ThermalMatrix& k, const ThermalState& x, double h) noexcept {
   const double hh = 0.5 * h;
   const double m11 = 1.0 - hh * k.a11;
@@ -38,28 +68,11 @@ double ThermalModel::shell_ambient_per_s() const noexcept {
 double ThermalModel::rail_a_per_c() const noexcept { return peltier_per_a_s / (2.0 * joule_k_per_a2_s); }
 
 ThermalMatrix thermal_matrix(const ThermalModel& m, double i, double ambient_c) noexcept {
-  const double a = m.peltier_per_a_s;
-  const double b = m.joule_k_per_a2_s;
-  const double g = m.casing_shell_per_s();
-  const double r = m.capacity_ratio();
-  const double e = m.shell_ambient_per_s();
-  return {a * i - g,
-          g,
-          r * g,
-          -r * a * i - r * g - e,
-          a * i * kKelvin + b * i * i + m.internal_k_per_s,
-          r * (-a * i * kKelvin + b * i * i) + e * ambient_c};
+  return matrix(coefficients(m), i, ambient_c);
 }
 
 double applied_current_a(const ThermalModel& m, const ThermalState& x, double command_a) noexcept {
-  const double shift_a = m.rail_a_per_c() * (x.casing_c - x.shell_c);
-  const double hi = m.rail_a - shift_a;
-  const double lo = -m.rail_a - shift_a;
-  // A clamp rounded over a few mA (softplus), so that the fit's least squares
-  // see a smooth function of the rail parameters.
-  auto softplus = [](double v) { return v > 30.0 ? v : (v < -30.0 ? 0.0 : std::log1p(std::exp(v))); };
-  constexpr double kRoundA = 0.003;
-  return command_a - kRoundA * softplus((command_a - hi) / kRoundA) + kRoundA * softplus((lo - command_a) / kRoundA);
+  return applied(coefficients(m), x, command_a);
 }
 
 double casing_gain_k_per_a_s(const ThermalModel& m, const ThermalState& x, double current_a) noexcept {
@@ -69,10 +82,11 @@ double casing_gain_k_per_a_s(const ThermalModel& m, const ThermalState& x, doubl
 ThermalState step(const ThermalModel& m, const ThermalState& x, double command_a, double ambient_c,
                   double h_s) noexcept {
   if (!(h_s > 0.0)) return x;
+  const Coefficients c = coefficients(m);
   const int n = std::max(1, static_cast<int>(std::ceil(h_s / kMaxStepS - 1e-9)));
   const double h = h_s / n;
   ThermalState y = x;
-  for (int j = 0; j < n; ++j) y = trapezoid(thermal_matrix(m, applied_current_a(m, y, command_a), ambient_c), y, h);
+  for (int j = 0; j < n; ++j) y = trapezoid(matrix(c, applied(c, y, command_a), ambient_c), y, h);
   return y;
 }
 
@@ -137,6 +151,7 @@ void simulate_sensor(const ThermalModel& m, const ThermalState& initial, std::sp
   if (n == 0) return;
   // Lagged casing temperature at every record time (exact for a casing
   // temperature moving linearly over the step).
+  const Coefficients c = coefficients(m);
   ThermalState x = initial;
   scratch[0] = x.casing_c;
   const double tau = m.sensor_lag_s;
@@ -149,7 +164,7 @@ void simulate_sensor(const ThermalModel& m, const ThermalState& initial, std::sp
     const double before_c = x.casing_c;
     const int steps = std::max(1, static_cast<int>(std::ceil(h_s / kMaxStepS - 1e-9)));
     const double h = h_s / steps;
-    for (int s = 0; s < steps; ++s) x = trapezoid(thermal_matrix(m, applied_current_a(m, x, command_a[j - 1]), ta), x, h);
+    for (int s = 0; s < steps; ++s) x = trapezoid(matrix(c, applied(c, x, command_a[j - 1]), ta), x, h);
     if (tau <= 0.0) {
       scratch[j] = x.casing_c;
       continue;

@@ -5,6 +5,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "gyrotc/algorithms/model/plant.hpp"
 #include "gyrotc/algorithms/tune/controller_design.hpp"
 #include "gyrotc/algorithms/tune/thermal_identify.hpp"
 #include "gyrotc/app/controller_file.hpp"
@@ -41,6 +42,11 @@ struct TuneResult {
 // InputError naming the source when the record cannot be tuned from (what is
 // missing: excitation, response, a continuous record, ...).
 TuneResult tune_from_record(const TuneInput& input);
+
+// The plant's physical minimum warm-up (issue 23): every node at from_c, the
+// TEC commanded at the stage's current limit (the plant clips it at its
+// rails), until the casing reaches target_c; -1 when it does not within 4 h.
+double plant_minimum_warm_up_s(const model::PlantParams& plant, double from_c, double target_c);
 
 // The [identified] and [design] tables written below the controller.
 std::string tune_informational_toml(const TuneResult& result, const std::string& source);

@@ -24,7 +24,9 @@
 // to rated_low_c and rated_high_c at 1 C/min with 20 min holds. It keeps the
 // gains with the smallest error while the ambient is within the band, and
 // among those within 3 mC of it the fastest settling; then the separation
-// band with the fastest settling.
+// band with the fastest settling. Ambients at which the unit cannot hold the
+// setpoint at all (its current limits and rails) are left out of the
+// programme and the band: no gains help there.
 namespace gyrotc::tune {
 
 struct DesignSpec {
