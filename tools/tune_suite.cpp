@@ -33,7 +33,6 @@
 
 #include "gyrotc/algorithms/fit/bias_model.hpp"
 #include "gyrotc/algorithms/model/plant.hpp"
-#include "gyrotc/algorithms/tune/experiment.hpp"
 #include "gyrotc/app/chamber_profile_file.hpp"
 #include "gyrotc/app/controller_file.hpp"
 #include "gyrotc/app/errors.hpp"
@@ -168,18 +167,8 @@ Outcome run_variant(const Variant& v, const std::string& dir) {
   o.feasible = holds_band(v.plant, o.infeasible_why);
 
   // The identification experiment, recorded as the board records it.
-  static const fit::BiasModel calibration = fit::BiasModel::paper_reference();
-  app::SimulationSetup s;
-  s.plant = v.plant;
-  s.controller = app::controller_preset(app::ControllerMode::paper, v.plant);
-  s.calibration = &calibration;
-  s.sample_rate_hz = kSampleRateHz;
-  tune::IdentificationExperiment experiment;
-  s.program = &experiment;
-  const model::ChamberProfile room({{"tune", 0.0, experiment.plan().max_duration_s(), kRoomC, kRoomC}});
-  const app::SimulationResult record = app::run_simulation(s, room);
   const std::string record_csv = dir + "/record.csv";
-  app::write_board_record_csv(record.rows, record_csv);
+  app::write_board_record_csv(app::simulate_tune_experiment(v.plant, kRoomC, kSampleRateHz).rows, record_csv);
 
   // tune, from the file alone.
   const std::string controller_toml = dir + "/controller.toml";
@@ -249,9 +238,10 @@ void plot_variant(const Outcome& o, const std::string& path) {
   for (const auto& [label, loop] : loops) {
     app::plot::Series s;
     s.label = label;
-    for (const auto& row : loop->rows) {
-      s.x.push_back(row.time_s);
-      s.y.push_back(std::clamp(row.casing_c - kSetpointC, -0.5, 0.5));
+    // Every 10th second (the file stays small; the holds change over minutes).
+    for (std::size_t k = 0; k < loop->rows.size(); k += 10) {
+      s.x.push_back(loop->rows[k].time_s);
+      s.y.push_back(std::clamp(loop->rows[k].casing_c - kSetpointC, -0.5, 0.5));
     }
     if (!s.x.empty()) panel.series.push_back(std::move(s));
   }
@@ -259,9 +249,9 @@ void plot_variant(const Outcome& o, const std::string& path) {
   ambient.label = "ambient";
   ambient.right_axis = true;
   ambient.dashed = true;
-  for (const auto& row : o.paper.rows) {
-    ambient.x.push_back(row.time_s);
-    ambient.y.push_back(row.ambient_c);
+  for (std::size_t k = 0; k < o.paper.rows.size(); k += 10) {
+    ambient.x.push_back(o.paper.rows[k].time_s);
+    ambient.y.push_back(o.paper.rows[k].ambient_c);
   }
   panel.y2.title = "ambient (C)";
   panel.series.push_back(ambient);
@@ -416,7 +406,7 @@ int run(const Options& opt) {
   md << "<!-- tune_suite:begin (written by tools/tune_suite; do not edit by hand) -->\n";
   md << "Run: `tune_suite" << (opt.quick ? " --quick" : "") << " --random " << opt.random << " --seed " << opt.seed
      << "`, " << outcomes.size() << " variants, "
-     << std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count() << " s.\n\n";
+     << num(std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(), "%.0f") << " s.\n\n";
   md << "- Nominal plant: physical minimum " << num(nominal.minimum_s, "%.1f") << " s; tuned from data settles in "
      << num(nominal.data.settle_s, "%.0f") << " s ("
      << num(nominal.minimum_s > 0.0 ? 100.0 * (nominal.data.settle_s / nominal.minimum_s - 1.0) : -1.0, "%.1f")
@@ -433,7 +423,8 @@ int run(const Options& opt) {
   }
   md << "\n![every variant](tuning/summary.svg)\n\n";
   md << "![nominal](tuning/fig26_nominal.svg)\n![casing capacity x0.5](tuning/fig26_casing_capacity_j_per_k_x0.5.svg)\n"
-        "![TEC conductance x1.5](tuning/fig26_conductance_w_per_k_x1.5.svg)\n";
+        "![TEC conductance x1.5](tuning/fig26_conductance_w_per_k_x1.5.svg)\n"
+        "![shell to ambient x1.5](tuning/fig26_shell_ambient_w_per_k_x1.5.svg)\n";
   md << "<!-- tune_suite:end -->\n";
 
   std::string doc;

@@ -9,6 +9,7 @@
 #include <limits>
 #include <stdexcept>
 
+#include "gyrotc/algorithms/fit/bias_model.hpp"
 #include "gyrotc/app/csv_table.hpp"
 #include "gyrotc/app/errors.hpp"
 
@@ -172,6 +173,23 @@ TuneResult tune_from_record(const TuneInput& input) {
     if (!e.determined && e.name != "rail_a") r.warnings.push_back(e.name + ": " + e.note);
   }
   return r;
+}
+
+SimulationResult simulate_tune_experiment(const model::PlantParams& plant, double room_c, double sample_rate_hz,
+                                          const tune::ExperimentPlan& plan) {
+  static const fit::BiasModel calibration = fit::BiasModel::paper_reference();
+  SimulationSetup s;
+  s.plant = plant;
+  s.controller = controller_preset(ControllerMode::paper, plant);  // its limits and fail-safes; the PID idles
+  s.calibration = &calibration;
+  s.sample_rate_hz = sample_rate_hz;
+  tune::IdentificationExperiment experiment(plan);
+  s.program = &experiment;
+  return run_simulation(s, tune_experiment_room(room_c, plan));
+}
+
+model::ChamberProfile tune_experiment_room(double room_c, const tune::ExperimentPlan& plan) {
+  return model::ChamberProfile({{"tune", 0.0, plan.max_duration_s(), room_c, room_c}});
 }
 
 double plant_minimum_warm_up_s(const model::PlantParams& params, double from_c, double target_c) {

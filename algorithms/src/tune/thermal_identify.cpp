@@ -125,11 +125,7 @@ void check_record(const TuneRecord& r) {
 }
 
 // A first guess from the one-node heat balance on smoothed derivatives
-// (equation error): dT/dt = a I (T + 273.15) + b I^2 - g_ca (T - Ta) + p,
-// on the rows whose command is small enough that no stage clips it (a third
-// of the largest). Then the rail: on the rows with a larger heating command,
-// the current the balance needs where it falls short of the command, plus the
-// rails' fall with the temperature difference.
+// (equation error): dT/dt = a I (T + 273.15) + b I^2 - g_ca (T - Ta) + p.
 std::vector<double> first_guess(const TuneRecord& r, const std::vector<double>& ambient, bool ambient_measured) {
   const std::size_t n = r.time_s.size();
   constexpr std::size_t w = 10;
@@ -162,48 +158,59 @@ std::vector<double> first_guess(const TuneRecord& r, const std::vector<double>& 
     rows.push_back(row);
   }
   const double small_a = max_abs / 3.0;
-  Eigen::MatrixXd x(static_cast<Eigen::Index>(rows.size()), 4);
-  Eigen::VectorXd y(static_cast<Eigen::Index>(rows.size()));
-  Eigen::Index used = 0;
-  for (const Row& row : rows) {
-    if (std::fabs(row.i) > small_a) continue;
-    y(used) = row.dtdt;
-    x(used, 0) = row.i * (row.t + kKelvin);
-    x(used, 1) = row.i2;
-    x(used, 2) = ambient_measured ? -(row.t - row.ta) : -row.t;
-    x(used, 3) = 1.0;
-    ++used;
-  }
-  std::vector<double> th(kCount, 0.0);
   double a = 1e-4;
   double b = 1e-2;
   double g = 1e-4;
   double c = 0.0;
-  if (used > 8) {
-    const Eigen::VectorXd beta = identify::solve_linear(x.topRows(used), y.head(used));
-    if (beta(0) > 0.0) a = beta(0);
-    b = beta(1) > 0.0 ? beta(1) : 100.0 * a;  // S/R of a few mV/K per ohm
-    if (beta(2) > 0.0) g = beta(2);
-    c = beta(3);
+  double rail = kNoRailA;
+  // Two passes: the heat balance on the rows no rail can clip (heating up to
+  // a third of the largest command, and cooling, whose limit moves away while
+  // the casing is warmer than the shell), the rail from the rows that need
+  // less current than was commanded; then again without the cooling rows
+  // that rail would clip too (a weak stage clips both ways).
+  for (int pass = 0; pass < 2; ++pass) {
+    Eigen::MatrixXd x(static_cast<Eigen::Index>(rows.size()), 4);
+    Eigen::VectorXd y(static_cast<Eigen::Index>(rows.size()));
+    Eigen::Index used = 0;
+    const double s_guess = a / (2.0 * b);
+    for (const Row& row : rows) {
+      if (row.i > small_a) continue;
+      if (pass == 1 && row.i < -small_a && -row.i > rail + s_guess * (row.t - row.ta)) continue;
+      y(used) = row.dtdt;
+      x(used, 0) = row.i * (row.t + kKelvin);
+      x(used, 1) = row.i2;
+      x(used, 2) = ambient_measured ? -(row.t - row.ta) : -row.t;
+      x(used, 3) = 1.0;
+      ++used;
+    }
+    if (used > 8) {
+      const Eigen::VectorXd beta = identify::solve_linear(x.topRows(used), y.head(used));
+      if (beta(0) > 0.0) a = beta(0);
+      b = beta(1) > 0.0 ? beta(1) : 100.0 * a;  // S/R of a few mV/K per ohm
+      if (beta(2) > 0.0) g = beta(2);
+      c = beta(3);
+    }
+    const double p_pass = ambient_measured ? c : 0.0;
+    double rail_sum = 0.0;
+    std::size_t clipped = 0;
+    const double s_per_r = a / (2.0 * b);
+    for (const Row& row : rows) {
+      if (!row.steady || row.i <= small_a) continue;
+      // b I^2 + a (T + K) I - (dT/dt + g (T - Ta) - p) = 0, the positive root.
+      const double q = row.dtdt + g * (row.t - row.ta) - p_pass;
+      const double lin = a * (row.t + kKelvin);
+      const double needed = (-lin + std::sqrt(lin * lin + 4.0 * b * q)) / (2.0 * b);
+      if (std::isfinite(needed) && needed < 0.95 * row.i) {
+        rail_sum += needed + s_per_r * (row.t - row.ta);
+        ++clipped;
+      }
+    }
+    rail = clipped > 20 ? rail_sum / static_cast<double>(clipped) : kNoRailA;
+    if (rail >= kNoRailA) break;  // nothing clipped: the first pass stands
   }
   const double p = ambient_measured ? c : 0.0;
   const double ta0 = ambient_measured ? mean_ambient : c / g;
-  double rail = kNoRailA;
-  double rail_sum = 0.0;
-  std::size_t clipped = 0;
-  const double s_per_r = a / (2.0 * b);
-  for (const Row& row : rows) {
-    if (!row.steady || row.i <= small_a) continue;
-    // b I^2 + a (T + K) I - (dT/dt + g (T - Ta) - p) = 0, the positive root.
-    const double q = row.dtdt + g * (row.t - row.ta) - p;
-    const double lin = a * (row.t + kKelvin);
-    const double needed = (-lin + std::sqrt(lin * lin + 4.0 * b * q)) / (2.0 * b);
-    if (std::isfinite(needed) && needed < 0.95 * row.i) {
-      rail_sum += needed + s_per_r * (row.t - row.ta);
-      ++clipped;
-    }
-  }
-  if (clipped > 20) rail = rail_sum / static_cast<double>(clipped);
+  std::vector<double> th(kCount, 0.0);
   th[kLogPeltier] = std::log(a);
   th[kLogJoule] = std::log(b);
   th[kLogLoss] = std::log(g);

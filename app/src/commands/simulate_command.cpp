@@ -26,6 +26,7 @@
 #include "gyrotc/app/plant_file.hpp"
 #include "gyrotc/app/progress.hpp"
 #include "gyrotc/app/svg_plot.hpp"
+#include "gyrotc/app/tuning.hpp"
 
 namespace gyrotc::app {
 namespace {
@@ -232,12 +233,6 @@ void print_text(const nlohmann::json& j, const std::optional<std::string>& csv,
   if (plot) std::printf("  plot: %s\n", plot->c_str());
 }
 
-// The chamber of `--profile tune`: the room at a constant temperature for as
-// long as the identification experiment can take.
-model::ChamberProfile tune_profile(double ambient_c, double duration_s) {
-  return model::ChamberProfile({{"tune", 0.0, duration_s, ambient_c, ambient_c}});
-}
-
 // A preset by name, or a controller file (tune's output) on the plant's limits.
 ControllerConfig controller_for(const std::string& name, const model::PlantParams& plant) {
   if (name == "paper" || name == "tuned" || name == "off") return controller_preset(parse_controller_mode(name), plant);
@@ -250,7 +245,7 @@ ControllerConfig controller_for(const std::string& name, const model::PlantParam
 void run(const SimulateOptions& o) {
   const bool experiment = o.profile == "tune";
   const tune::ExperimentPlan plan;
-  const model::ChamberProfile profile = experiment ? tune_profile(o.ambient_c, plan.max_duration_s())
+  const model::ChamberProfile profile = experiment ? tune_experiment_room(o.ambient_c, plan)
                                                    : chamber_profile_by_name(o.profile, data_dir());
   SimulationSetup setup;
   if (!o.plant.empty()) setup.plant = load_plant(o.plant);

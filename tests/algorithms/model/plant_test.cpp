@@ -203,12 +203,13 @@ TEST_CASE("the zero-rate output follows seed Table 2 at the die temperature") {
   double sum = 0.0;
   for (int k = 0; k < n; ++k) sum += plant.gyro_mv(1e-3);
   const double mean = sum / n;
-  // The mean of 20 s of 1 deg/sqrt(h) white noise is within 0.01 mV of the bias.
-  CHECK(mean == Approx(79.9).margin(0.02));
+  // 1 deg/sqrt(h) at 1 kHz is ~4.6 mV rms a sample (the Allan test below
+  // checks that level): the mean of 20 000 is within 5 standard errors, 0.17 mV.
+  CHECK(mean == Approx(79.9).margin(0.17));
   plant.set_rate_dps(10.0);
   double with_rate = 0.0;
   for (int k = 0; k < n; ++k) with_rate += plant.gyro_mv(1e-3);
-  CHECK(with_rate / n - mean == Approx(10.0 * p.scale_mv_per_dps).margin(0.03));
+  CHECK(with_rate / n - mean == Approx(10.0 * p.scale_mv_per_dps).margin(0.24));
 }
 
 TEST_CASE("the gyro's white noise reads back as its angle random walk in an Allan deviation (IEEE 952)") {

@@ -12,8 +12,6 @@
 #include <string>
 #include <vector>
 
-#include "gyrotc/algorithms/fit/bias_model.hpp"
-#include "gyrotc/algorithms/tune/experiment.hpp"
 #include "gyrotc/app/commands.hpp"
 #include "gyrotc/app/controller_file.hpp"
 #include "gyrotc/app/errors.hpp"
@@ -40,15 +38,7 @@ std::string read_text(const std::string& path) {
 const std::string& record_csv() {
   static const std::string path = [] {
     std::filesystem::create_directories(kDir);
-    static const fit::BiasModel calibration = fit::BiasModel::paper_reference();
-    app::SimulationSetup s;
-    s.controller = app::controller_preset(app::ControllerMode::paper, s.plant);
-    s.calibration = &calibration;
-    s.sample_rate_hz = 20.0;
-    tune::IdentificationExperiment experiment;
-    s.program = &experiment;
-    const model::ChamberProfile room({{"tune", 0.0, experiment.plan().max_duration_s(), 16.0, 16.0}});
-    const app::SimulationResult r = app::run_simulation(s, room);
+    const app::SimulationResult r = app::simulate_tune_experiment(model::PlantParams{}, 16.0, 20.0);
     const std::string p = kDir + "/record.csv";
     app::write_board_record_csv(r.rows, p);
     return p;

@@ -51,12 +51,9 @@ Chain run_chain(const model::PlantParams& plant, const std::string& name) {
   const std::string dir = std::string(GYROTC_BINARY_DIR) + "/tune_chain_" + name;
   std::filesystem::create_directories(dir);
   // 1. gyrotc simulate --profile tune --plant P --out DIR
-  app::SimulationSetup s = setup_for(plant, app::controller_preset(app::ControllerMode::paper, plant));
-  tune::IdentificationExperiment experiment;
-  s.program = &experiment;
-  const model::ChamberProfile room({{"tune", 0.0, experiment.plan().max_duration_s(), 16.0, 16.0}});
-  app::write_board_record_csv(app::run_simulation(s, room).rows, dir + "/record.csv");
-  REQUIRE(experiment.phase() == tune::ExperimentPhase::done);
+  const app::SimulationResult experiment = app::simulate_tune_experiment(plant, 16.0, 20.0);
+  REQUIRE(experiment.rows.back().time_s < tune::ExperimentPlan{}.max_duration_s());  // it finished
+  app::write_board_record_csv(experiment.rows, dir + "/record.csv");
   // 2. gyrotc tune --data DIR/record.csv --out c.toml
   const app::TuneResult t = app::tune_from_record(app::read_tune_record(dir + "/record.csv"));
   app::save_controller_file(t.controller, dir + "/controller.toml");
@@ -105,6 +102,12 @@ TEST_CASE("chain on a TEC of 1.5x the thermal conductance: within 0.05 C, better
 TEST_CASE("the experiment through the real-time runner's loop (lockstep) records what tune identifies the unit from") {
   app::DaemonConfig config = app::load_daemon_config(std::string(GYROTC_SOURCE_DIR) + "/deploy/config/gyrotc-sim.toml");
   config.board.devices.adc.fclk_hz = 384.0 * 20.0;  // 20 samples a second: the loop passes that matter here
+  // The simulated stage's own current limit is 1 A (PlantParams): tune takes
+  // the commanded current as what flows but for the OPA548's rails, so the
+  // configured limit must not exceed the stage's (README, `gyrotc tune`).
+  config.board.devices.tec.current_limit_a = 1.0;
+  config.controller.pid.out_min = -1.0;
+  config.controller.pid.out_max = 1.0;
   app::BoardInstance instance = app::make_board(config.board, app::SimTiming::lockstep);
   hal::Board board = instance.board();
   const fit::Compensator compensator(calibration());
@@ -133,10 +136,9 @@ TEST_CASE("the experiment through the real-time runner's loop (lockstep) records
   CHECK(controller.program_finished());
   CHECK(experiment.phase() == tune::ExperimentPhase::done);
   CHECK(record.time_s.back() <= 3.0 * 3600.0);
-  // The sim board's plant is the default one, with [tec]'s 1.5 A software
-  // limit over the stage's 1 A: tune sees the unit's rail and loss anyway.
   const tune::ThermalFit fit = tune::identify_thermal(record);
-  CHECK(fit.rms_c < 0.05);
-  const double hold = tune::holding_current_a(fit.model, 55.0, -20.0, 1.5);
+  CHECK(fit.rms_c < 0.03);
+  CHECK(fit.rail_reached);
+  const double hold = tune::holding_current_a(fit.model, 55.0, -20.0, 1.0);
   CHECK(hold == Approx(0.37).margin(0.03));  // the plant's holding current at -20 C (README: 0.36 A)
 }

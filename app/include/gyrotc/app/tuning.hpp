@@ -7,8 +7,10 @@
 
 #include "gyrotc/algorithms/model/plant.hpp"
 #include "gyrotc/algorithms/tune/controller_design.hpp"
+#include "gyrotc/algorithms/tune/experiment.hpp"
 #include "gyrotc/algorithms/tune/thermal_identify.hpp"
 #include "gyrotc/app/controller_file.hpp"
+#include "gyrotc/app/lockstep_runner.hpp"
 
 // What `gyrotc tune` does behind its command line (issue 23): read the
 // unit's identification record, identify its thermal model, design its
@@ -42,6 +44,18 @@ struct TuneResult {
 // InputError naming the source when the record cannot be tuned from (what is
 // missing: excitation, response, a continuous record, ...).
 TuneResult tune_from_record(const TuneInput& input);
+
+// The room of `gyrotc simulate --profile tune`: room_c, constant, for as long
+// as the experiment can take.
+model::ChamberProfile tune_experiment_room(double room_c, const tune::ExperimentPlan& plan = {});
+
+// The identification experiment on the simulated board in lockstep, as
+// `gyrotc simulate --profile tune` runs it: every node and the room at
+// room_c, the TEC limited to the plant's current limit, an ambient DS18B20,
+// the seed's reference calibration; ends with the experiment.
+// write_board_record_csv(rows) is the record `gyrotc tune` reads.
+SimulationResult simulate_tune_experiment(const model::PlantParams& plant, double room_c, double sample_rate_hz,
+                                          const tune::ExperimentPlan& plan = {});
 
 // The plant's physical minimum warm-up (issue 23): every node at from_c, the
 // TEC commanded at the stage's current limit (the plant clips it at its
