@@ -23,6 +23,8 @@ constexpr double kMaxShareAtLimit = 0.8;
 constexpr double kMinPeltierTRatio = 3.0;
 // The DS18B20's 1/16 C step as noise: variance step^2 / 12.
 constexpr double fit_quantisation_var() { return 0.0625 * 0.0625 / 12.0; }
+// Levenberg-Marquardt runs from at most this many starting points.
+constexpr std::size_t kMaxRuns = 4;
 // Rail "none": a current no stage of this kind delivers.
 constexpr double kNoRailA = 50.0;
 
@@ -294,10 +296,12 @@ ThermalFit identify_thermal(const TuneRecord& record) {
   // Starting points. The rail clips the current in a way the Joule term can
   // partly mimic, and the shell is only seen through the casing: the least
   // squares surface has local minima. So first the best of a grid over the
-  // Joule term and the rail (the shell at a typical guess), then over the
-  // shell and the sensor's delay at that point; Levenberg-Marquardt runs from there and, unless that
-  // fit reaches the DS18B20's quantisation floor, also from the best start
-  // without any rail (the search cannot find a rail it starts far above).
+  // Joule term and the rail (the shell at a typical guess) and the best
+  // without a rail (the search cannot find a rail it starts far above, where
+  // no command reaches it), then a grid over the shell and the sensor's delay
+  // from both. Levenberg-Marquardt runs from the best of these, from the best
+  // of the other kind, then from the next best (at most kMaxRuns), until a
+  // fit reaches the DS18B20's quantisation floor.
   Eigen::MatrixXd design;
   Eigen::VectorXd offset;
   auto sse_of = [&](const std::vector<double>& th) {
@@ -332,9 +336,13 @@ ThermalFit identify_thermal(const TuneRecord& record) {
       }
     }
   }
-  for (std::vector<double>* th : {&best_rail, &best_none}) {
-    std::vector<double> best = *th;
-    double best_sse = sse_of(best);
+  struct Start {
+    std::vector<double> theta;
+    double sse;
+    bool rail;
+  };
+  std::vector<Start> starts;
+  for (const std::vector<double>* th : {&best_rail, &best_none}) {
     for (double ratio : {1.0, 5.0, 25.0}) {
       for (double tau : {20.0, 80.0, 300.0}) {
         for (double delay : {1.5, 10.0, 40.0}) {
@@ -342,23 +350,32 @@ ThermalFit identify_thermal(const TuneRecord& record) {
           trial[kLogShellRatio] = std::log(ratio);
           trial[kLogShellTau] = std::log(tau);
           trial[kDelay] = delay;
-          const double sse = sse_of(trial);
-          if (sse < best_sse) {
-            best_sse = sse;
-            best = trial;
-          }
+          starts.push_back({trial, sse_of(trial), th == &best_rail});
         }
       }
     }
-    *th = best;
+  }
+  std::sort(starts.begin(), starts.end(), [](const Start& a, const Start& b) { return a.sse < b.sse; });
+  // The runs: the best start, the best of the other kind (with or without a
+  // rail), then the next best, until a fit reaches the quantisation floor.
+  std::vector<const Start*> runs{&starts.front()};
+  for (const Start& st : starts) {
+    if (st.rail != starts.front().rail) {
+      runs.push_back(&st);
+      break;
+    }
+  }
+  for (const Start& st : starts) {
+    if (runs.size() >= kMaxRuns) break;
+    if (std::find(runs.begin(), runs.end(), &st) == runs.end()) runs.push_back(&st);
   }
   identify::SeparableFit sf;
   sf.sse = std::numeric_limits<double>::infinity();
   // A fit at the DS18B20's quantisation floor needs no second opinion.
   const double good_sse = 4.0 * fit_quantisation_var() * static_cast<double>(n);
-  for (const std::vector<double>* th : {&best_rail, &best_none}) {
+  for (const Start* st : runs) {
     if (sf.sse < good_sse) break;
-    model.theta_grid = {*th};
+    model.theta_grid = {st->theta};
     identify::SeparableFit f = identify::fit_separable(y, model);
     if (f.sse < sf.sse) sf = std::move(f);
   }

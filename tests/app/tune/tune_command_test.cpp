@@ -2,6 +2,7 @@
 // experiment on the simulated board, lockstep at 20 Hz: the thermal behaviour
 // does not depend on the gyro's sample rate).
 #include <nlohmann/json.hpp>
+#include <unistd.h>
 
 #include <cmath>
 #include <filesystem>
@@ -27,7 +28,8 @@ using gyrotc::test::run_command;
 
 namespace {
 
-const std::string kDir = std::string(GYROTC_BINARY_DIR) + "/tune_command";
+// One folder per process: ctest runs the test cases as parallel processes.
+const std::string kDir = std::string(GYROTC_BINARY_DIR) + "/tune_command_" + std::to_string(::getpid());
 
 std::string read_text(const std::string& path) {
   std::ifstream in(path);
