@@ -195,16 +195,18 @@ TecCommand Controller::on_pid_tick(double now_s) noexcept {
   } else {
     active_setpoint_c_ = config_.setpoint_c;
   }
-  const double ff = control::feed_forward_a(config_.feed_forward_a_per_c, config_.setpoint_c,
-                                            have_ambient_ ? ambient_c_ : std::numeric_limits<double>::quiet_NaN());
+  const double ff = control::feed_forward_a(config_.feed_forward_a_per_c, config_.setpoint_c, ambient_reading());
   // Anti-windup on the current applied (issue 22): control/tec_law.hpp.
   const double current_a = control::pid_current_a(pid_, casing_c_, active_setpoint_c_, ff, applied_range());
   return drive(current_a, pid_.saturated(), now_s);
 }
 
 control::CurrentRange Controller::applied_range() const noexcept {
-  return control::applied_range(config_.pid.out_min, config_.pid.out_max, config_.rail, casing_c_,
-                                have_ambient_ ? ambient_c_ : std::numeric_limits<double>::quiet_NaN());
+  return control::applied_range(config_.pid.out_min, config_.pid.out_max, config_.rail, casing_c_, ambient_reading());
+}
+
+double Controller::ambient_reading() const noexcept {
+  return have_ambient_ ? ambient_c_ : std::numeric_limits<double>::quiet_NaN();
 }
 
 TecCommand Controller::drive(double current_a, bool saturated, double now_s) noexcept {
@@ -231,7 +233,7 @@ TecCommand Controller::program_tick(double now_s) noexcept {
   control::TecProgramInput in;
   in.time_s = now_s - program_start_s_;
   in.casing_c = casing_c_;
-  in.ambient_c = have_ambient_ ? ambient_c_ : std::numeric_limits<double>::quiet_NaN();
+  in.ambient_c = ambient_reading();
   in.setpoint_c = config_.setpoint_c;
   const control::CurrentRange range = applied_range();
   in.min_a = range.min_a;

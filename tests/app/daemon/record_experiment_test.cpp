@@ -87,4 +87,16 @@ TEST_CASE("record --experiment tune refuses --pid off: the experiment needs the 
   CHECK(read_text(err).find("cannot run with the PID (TEC) off") != std::string::npos);
 }
 
+TEST_CASE("run --controller with a file that is not a controller file exits 2 naming the file") {
+  const std::string dir = std::string(GYROTC_BINARY_DIR);
+  const std::string bad = dir + "/not_a_controller.toml";
+  std::ofstream(bad) << "format = \"gyrotc-plant\"\n";
+  const std::string err = dir + "/run_bad_controller.err";
+  const pid_t pid = spawn_gyrotc({"run", "--config", std::string(GYROTC_SOURCE_DIR) + "/deploy/config/gyrotc-sim.toml",
+                                  "--controller", bad, "--allow-non-rt", "--duration", "1"},
+                                 err);
+  CHECK(exit_status(pid) == 2);
+  CHECK(read_text(err).find(bad + ": not a controller file") != std::string::npos);
+}
+
 #endif  // !GYROTC_NO_GUEST_THREADS

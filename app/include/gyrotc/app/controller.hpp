@@ -145,6 +145,7 @@ class Controller {
   TecCommand drive(double current_a, bool saturated, double now_s) noexcept;
   // The current the stage can apply now: out_min/out_max within the rails.
   control::CurrentRange applied_range() const noexcept;
+  double ambient_reading() const noexcept;  // NaN without one
   TecCommand program_tick(double now_s) noexcept;
 
   ControllerConfig config_;
