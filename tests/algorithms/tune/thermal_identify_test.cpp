@@ -371,7 +371,7 @@ TEST_CASE("a record where the current has no effect on the casing is refused") {
   std::mt19937_64 rng(3);
   std::normal_distribution<double> step(0.0, 0.02);
   double t = 30.0;
-  for (int k = 0; k < 5400; ++k) {
+  for (int k = 0; k < 2400; ++k) {
     t += step(rng);
     r.time_s.push_back(k);
     r.sensor_c.push_back(quantise(t));
