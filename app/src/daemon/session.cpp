@@ -1,5 +1,6 @@
 #include "gyrotc/app/daemon/session.hpp"
 
+#include <algorithm>
 #include <chrono>
 #include <cinttypes>
 #include <cmath>
@@ -12,6 +13,7 @@
 #include <nlohmann/json.hpp>
 
 #include "gyrotc/algorithms/fit/compensator.hpp"
+#include "gyrotc/algorithms/tune/experiment.hpp"
 #include "gyrotc/app/calibration_in_use.hpp"
 #include "gyrotc/app/daemon/kernel_rt.hpp"
 #include "gyrotc/app/daemon/line_sink.hpp"
@@ -86,7 +88,11 @@ void safe_off_board(const DaemonConfig& config) {
 
 void run_session(const SessionOptions& options) {
   DaemonConfig config = load_daemon_config(options.config_path);
+  if (!options.controller_file.empty()) use_controller_file(config, options.controller_file);
   if (options.pid) config.controller.pid_enabled = *options.pid;
+  if (options.tune_experiment && !config.controller.pid_enabled) {
+    throw InputError("the identification experiment drives the TEC: it cannot run with the PID (TEC) off");
+  }
   if (!options.record_csv.empty()) config.output.record_csv = options.record_csv;
   config.realtime.allow_non_rt = options.allow_non_rt;
 
@@ -98,6 +104,8 @@ void run_session(const SessionOptions& options) {
   const std::string calibration_text = describe(calibration);
   compensators.push_back(make_compensator(std::move(calibration)));
   Controller controller(config.controller, *compensators.back());
+  tune::IdentificationExperiment experiment;
+  if (options.tune_experiment) controller.run_program(&experiment);
 
   // Output files before any device: a bad path fails without touching the board.
   if (!options.summary_json.empty()) prepare_output_file(options.summary_json, "--summary-json");
@@ -128,6 +136,10 @@ void run_session(const SessionOptions& options) {
   RealtimeRunnerOptions ro;
   ro.realtime = config.realtime;
   ro.duration_s = options.duration_s;
+  if (options.tune_experiment) {
+    const double bound_s = experiment.plan().max_duration_s() + 60.0;
+    ro.duration_s = ro.duration_s > 0.0 ? std::min(ro.duration_s, bound_s) : bound_s;
+  }
   ro.sample_period_s = hal::Ads1251::kClocksPerSample / config.board.devices.adc.fclk_hz;
   ro.output_period_s = config.output.period_s;
   ro.sensor_period_s = config.sensor_period_s;
@@ -168,8 +180,14 @@ void run_session(const SessionOptions& options) {
   GYROTC_LOG_NOTICE("running on %s (%s): %s, memory %s, PID %s, calibration %s",
                     config.board.hal == HalKind::sim ? "the simulated board" : "the board", config.source.c_str(),
                     runner.is_realtime() ? "SCHED_FIFO" : "normal scheduler (--allow-non-rt)",
-                    runner.memory_locked() ? "locked" : "not locked", config.controller.pid_enabled ? "on" : "off",
+                    runner.memory_locked() ? "locked" : "not locked",
+                    options.tune_experiment ? "replaced by the identification experiment"
+                                            : (config.controller.pid_enabled ? "on" : "off"),
                     calibration_text.c_str());
+  if (options.tune_experiment) {
+    GYROTC_LOG_NOTICE("identification experiment: at most %.0f s; then `gyrotc tune --data %s --out controller.toml`",
+                      experiment.plan().max_duration_s(), config.output.record_csv.c_str());
+  }
 
   using clock = std::chrono::steady_clock;
   const auto started = clock::now();
@@ -179,7 +197,7 @@ void run_session(const SessionOptions& options) {
   auto next_watchdog = started;
   std::uint64_t last_heartbeat = 0;
   int stop_signal = 0;
-  while (!runner.finished()) {
+  while (!runner.finished() && !controller.program_finished()) {
     const DaemonSignals::Event event = signals.wait(0.1);
     if (event == DaemonSignals::Event::stop) {
       stop_signal = signals.last_signal();
@@ -238,8 +256,10 @@ void run_session(const SessionOptions& options) {
 
   const LoopCounters c = runner.counters();
   const LatencyHistogram::Summary l = runner.latency();
-  GYROTC_LOG_NOTICE("%s after %.1f s: TEC at 0 A, OPA548 disabled (safe-off)",
-                    stop_signal != 0 ? (stop_signal == SIGINT ? "SIGINT" : "SIGTERM") : "duration reached", elapsed_s);
+  const char* stopped_by = stop_signal != 0 ? (stop_signal == SIGINT ? "SIGINT" : "SIGTERM")
+                           : controller.program_finished() ? "experiment finished"
+                                                           : "duration reached";
+  GYROTC_LOG_NOTICE("%s after %.1f s: TEC at 0 A, OPA548 disabled (safe-off)", stopped_by, elapsed_s);
   GYROTC_LOG_NOTICE("summary: %" PRIu64 " samples, %" PRIu64 " PID ticks, %" PRIu64 " readings, overruns %" PRIu64
                     ", missed conversions %" PRIu64 ", late reads %" PRIu64 ", spurious edges %" PRIu64
                     ", DRDY timeouts %" PRIu64 ", rows dropped %" PRIu64
@@ -266,7 +286,7 @@ void run_session(const SessionOptions& options) {
     j["config"] = config.source;
     j["hal"] = config.board.hal == HalKind::sim ? "sim" : "linux";
     j["elapsed_s"] = elapsed_s;
-    j["stopped_by"] = stop_signal == 0 ? "duration" : (stop_signal == SIGINT ? "SIGINT" : "SIGTERM");
+    j["stopped_by"] = std::string(stopped_by) == "duration reached" ? "duration" : stopped_by;
     j["realtime"] = runner.is_realtime();
     j["memory_locked"] = runner.memory_locked();
     j["samples"] = c.samples;

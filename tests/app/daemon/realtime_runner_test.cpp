@@ -23,10 +23,15 @@
 #include "gyrotc/app/errors.hpp"
 #include "gyrotc/hal/chips/ads1251.hpp"
 #include "gyrotc_catch.hpp"
+#include "gyrotc_process.hpp"
 #include "test_paths.hpp"
 
 using namespace gyrotc;
 using gyrotc::app::RealtimeRunner;
+using gyrotc::test::exit_status;
+using gyrotc::test::read_text;
+using gyrotc::test::spawn_gyrotc;
+using gyrotc::test::wait_for_text;
 
 // Every test here starts the runner's threads (in process or in a `gyrotc`
 // child): native only under qemu (see link.cmake).
@@ -59,49 +64,6 @@ struct SimRig {
     return !sim.opa548_chip().output_enabled() && std::fabs(sim.tec_dac_chip().output_v() - mid_v) < 1e-3;
   }
 };
-
-// Starts the gyrotc executable with args, stderr to err_path.
-pid_t spawn_gyrotc(const std::vector<std::string>& args, const std::string& err_path) {
-  const std::string exe = gyrotc::test::gyrotc_exe();
-  std::vector<char*> argv;
-  argv.push_back(const_cast<char*>(exe.c_str()));
-  for (const auto& a : args) argv.push_back(const_cast<char*>(a.c_str()));
-  argv.push_back(nullptr);
-  // Truncated here, not in the child: a caller polling the file must never
-  // see a previous run's lines.
-  const int fd = open(err_path.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
-  if (fd < 0) return -1;
-  const pid_t pid = fork();
-  if (pid == 0) {
-    dup2(fd, STDERR_FILENO);
-    const int null = open("/dev/null", O_WRONLY);
-    dup2(null, STDOUT_FILENO);
-    execv(exe.c_str(), argv.data());
-    _exit(127);
-  }
-  close(fd);
-  return pid;
-}
-
-std::string read_text(const std::string& path) {
-  std::ifstream in(path);
-  return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-}
-
-// Waits (bounded) until the file at path contains text.
-bool wait_for_text(const std::string& path, const std::string& text) {
-  for (int i = 0; i < 300; ++i) {
-    if (read_text(path).find(text) != std::string::npos) return true;
-    std::this_thread::sleep_for(std::chrono::milliseconds(100));
-  }
-  return false;
-}
-
-int exit_status(pid_t pid) {
-  int status = 0;
-  if (waitpid(pid, &status, 0) != pid || !WIFEXITED(status)) return -1;
-  return WEXITSTATUS(status);
-}
 
 void wait_finished(const RealtimeRunner& runner) {
   // A bound on the test, not a timing assertion: the runs below last seconds.
