@@ -64,6 +64,26 @@ Spline make_spline(Sorted&& s, std::vector<double> second_derivatives) {
   return sp;
 }
 
+// A natural spline continues as a straight line beyond its end knots: a knot
+// at each range end outside the data, on the end tangent, with m = 0.
+void extend_linearly(Sorted& s, std::vector<double>& m) {
+  const std::size_t n = s.x.size();
+  const double h0 = s.x[1] - s.x[0];
+  const double slope0 = (s.y[1] - s.y[0]) / h0 - h0 * m[1] / 6.0;  // m[0] = 0
+  const double h1 = s.x[n - 1] - s.x[n - 2];
+  const double slope1 = (s.y[n - 1] - s.y[n - 2]) / h1 + h1 * m[n - 2] / 6.0;  // m[n-1] = 0
+  if (s.hi > s.x.back()) {
+    s.y.push_back(s.y.back() + slope1 * (s.hi - s.x.back()));
+    s.x.push_back(s.hi);
+    m.push_back(0.0);
+  }
+  if (s.lo < s.x.front()) {
+    s.y.insert(s.y.begin(), s.y.front() - slope0 * (s.x.front() - s.lo));
+    s.x.insert(s.x.begin(), s.lo);
+    m.insert(m.begin(), 0.0);
+  }
+}
+
 // The not-a-knot interpolant's second derivatives as a linear map of the
 // values (n >= 4): S m = 6 D y, with rows 1..n-2 the continuity of the first
 // derivative at the interior knots and rows 0 and n-1 the continuity of the
@@ -319,8 +339,12 @@ SmoothingSplineFit fit_smoothing_spline(std::span<const double> temp_c, std::spa
   if (!jumps) curvature = curvature_penalty(s.x);
   const DemmlerReinsch dr(jumps ? jump_penalty(s.x) : Eigen::MatrixXd(curvature->q * curvature->r.solve(curvature->q.transpose())),
                           s.y);
-  const double log_lambda =
-      options.dof != 0.0 ? log_lambda_for_dof(dr, options.dof) : choose_log_lambda(dr, options.criterion);
+  if (options.lambda < 0.0 || !std::isfinite(options.lambda)) {
+    throw std::invalid_argument("smoothing spline: lambda must be a positive number");
+  }
+  const double log_lambda = options.lambda > 0.0 ? std::log10(options.lambda)
+                            : options.dof != 0.0 ? log_lambda_for_dof(dr, options.dof)
+                                                 : choose_log_lambda(dr, options.criterion);
   SmoothingSplineFit fit;
   fit.lambda = std::pow(10.0, log_lambda);
   fit.dof = dr.dof(fit.lambda);
@@ -336,6 +360,7 @@ SmoothingSplineFit fit_smoothing_spline(std::span<const double> temp_c, std::spa
   } else {
     const Eigen::VectorXd gamma = curvature->r.solve(curvature->q.transpose() * g);
     for (std::size_t i = 1; i + 1 < n; ++i) m[i] = gamma(static_cast<Eigen::Index>(i - 1));
+    extend_linearly(s, m);
   }
   fit.spline = make_spline(std::move(s), std::move(m));
   return fit;

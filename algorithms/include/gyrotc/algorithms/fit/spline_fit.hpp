@@ -32,7 +32,9 @@ enum class SmoothingPenalty {
   // The integral of the squared second derivative: the classical smoothing
   // spline (Reinsch 1967; Green & Silverman 1994, Section 2.3), a natural
   // spline (second derivative 0 at the end knots): the curve shrinks towards
-  // a straight line and straightens at the ends of the range.
+  // a straight line and straightens at the ends of the range; between an end
+  // knot and the range end it continues as a straight line (the minimiser's
+  // form there), stored as one more knot at the range end.
   curvature,
 };
 
@@ -53,6 +55,8 @@ struct SmoothingOptions {
   // Effective degrees of freedom tr(A) to fit instead of choosing lambda by
   // the criterion (above the penalty's null space, below the points); 0 = choose.
   double dof = 0.0;
+  // The penalty weight itself (> 0), instead of dof or the criterion; 0 = not given.
+  double lambda = 0.0;
 };
 
 struct SmoothingSplineFit {
