@@ -65,11 +65,18 @@ std::vector<double> generate_rate_noise(const RateNoise& noise, double rate_hz, 
     }
   }
   if (noise.rrw > 0.0) {
+    // The mean over each sample period of a continuous random walk W(t):
+    // with the walk's step over the period dW (variance K^2 tau0), the mean
+    // lies dW / 2 above the start plus an independent part of variance
+    // K^2 tau0 / 12 (the Brownian bridge's mean). Its Allan variance is
+    // K^2 tau / 3 at every tau; point samples of W would add K^2 tau0^2 / (6 tau).
     const double step = noise.rrw * std::sqrt(tau0);
-    double rate = 0.0;
+    const double bridge = noise.rrw * std::sqrt(tau0 / 12.0);
+    double start = 0.0;
     for (double& v : y) {
-      rate += step * walk.normal();
-      v += rate;
+      const double dw = step * walk.normal();
+      v += start + 0.5 * dw + bridge * walk.normal();
+      start += dw;
     }
   }
   if (noise.bias_instability > 0.0 && samples > 0) {

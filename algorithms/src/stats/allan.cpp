@@ -66,7 +66,7 @@ AllanResult allan_deviation(std::span<const double> rate, double rate_hz, const 
     result.points.push_back(p);
   }
 
-  result.fit = fit_noise_terms(result.points, n, options);
+  result.fit = fit_noise_terms(result.points, n, rate_hz, options);
   // Each point's interval: chi-square with the EDF of the fitted mixture
   // (white rate noise alone when nothing could be fitted).
   const double tail = 0.5 * (1.0 - options.confidence);

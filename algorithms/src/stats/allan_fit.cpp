@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "gyrotc/algorithms/stats/allan.hpp"
+#include "gyrotc/algorithms/stats/allan_covariance.hpp"
 #include "gyrotc/algorithms/stats/allan_edf.hpp"
 #include "gyrotc/algorithms/stats/chi_square.hpp"
 
@@ -19,6 +20,9 @@ constexpr double kTwoLn2OverPi = 0.44127462871889788;  // 2 ln 2 / pi (IEEE 952 
 // An estimate whose noise is all deterministic (a pure ramp) has no
 // sampling variance; this EDF stands for "exact" without dividing by zero.
 constexpr double kMaxEdf = 1e9;
+// Correlation length of the model discrepancy along log10 tau: a real
+// spectrum departs from the power laws smoothly, over about half a decade.
+constexpr double kDiscrepancyDecades = 0.5;
 
 std::optional<PowerLawNoise> noise_type(NoiseTerm t) {
   switch (t) {
@@ -59,127 +63,176 @@ double point_edf(const Point& p, const Coefficients& c) {
   return std::min(kMaxEdf, total * total / spread);
 }
 
-// Gamma log-density of the estimate: avar ~ A chi^2_nu / nu, shape k = nu / 2.
-double log_density(double avar, double model, double edf) {
-  const double k = 0.5 * edf;
-  return k * std::log(k) - std::lgamma(k) + (k - 1.0) * std::log(avar) - k * std::log(model) - k * avar / model;
+// Digamma and trigamma: recurrence up to x >= 8, then the asymptotic series
+// (Abramowitz & Stegun 6.3.18, 6.4.12).
+double digamma(double x) {
+  double shift = 0.0;
+  while (x < 8.0) {
+    shift -= 1.0 / x;
+    x += 1.0;
+  }
+  const double i2 = 1.0 / (x * x);
+  return shift + std::log(x) - 0.5 / x - i2 * (1.0 / 12.0 - i2 * (1.0 / 120.0 - i2 / 252.0));
+}
+
+double trigamma(double x) {
+  double shift = 0.0;
+  while (x < 8.0) {
+    shift += 1.0 / (x * x);
+    x += 1.0;
+  }
+  const double i = 1.0 / x;
+  const double i2 = i * i;
+  return shift + i + 0.5 * i2 + i * i2 * (1.0 / 6.0 - i2 * (1.0 / 30.0 - i2 / 42.0));
+}
+
+// The records' points, prepared once: the logarithms of the estimates, the
+// powers of tau, and the covariance of the estimates per noise type.
+struct Problem {
+  std::vector<Point> points;
+  Eigen::VectorXd log_avar;
+  Eigen::VectorXd log10_tau;
+  double discrepancy = 0.0;
+  std::optional<AvarCovariance> covariance;
+};
+
+// -2 log L of the log-estimates for coefficients c, with the pieces the
+// Gauss-Newton step needs.
+struct Evaluation {
+  double minus_two_log_l = std::numeric_limits<double>::infinity();
+  Eigen::VectorXd residual;  // ln a - ln A - bias
+  Eigen::LDLT<Eigen::MatrixXd> factor;
+  Eigen::VectorXd model;     // A
+};
+
+Evaluation evaluate(const Problem& pr, const Coefficients& c) {
+  const auto n = static_cast<Eigen::Index>(pr.points.size());
+  Evaluation e;
+  e.model.resize(n);
+  e.residual.resize(n);
+  const Eigen::MatrixXd cov = pr.covariance->covariance({c[0], c[1], c[2], c[3]}, c[4]);
+  Eigen::VectorXd sd(n);
+  for (Eigen::Index i = 0; i < n; ++i) {
+    const Point& p = pr.points[static_cast<std::size_t>(i)];
+    const double a = model_avar(p, c);
+    if (!(a > 0.0)) return e;
+    e.model(i) = a;
+    const double var = cov(i, i);
+    const double nu = var > 0.0 ? std::min(kMaxEdf, 2.0 * a * a / var) : kMaxEdf;
+    e.residual(i) = pr.log_avar(i) - std::log(a) - (digamma(0.5 * nu) - std::log(0.5 * nu));
+    sd(i) = std::sqrt(trigamma(0.5 * nu));
+  }
+  // Correlations of the estimates, carried to their logarithms, plus the
+  // model's own discrepancy: smooth in log tau, relative sd `discrepancy`.
+  Eigen::MatrixXd z(n, n);
+  const double d2 = pr.discrepancy * pr.discrepancy;
+  for (Eigen::Index i = 0; i < n; ++i) {
+    for (Eigen::Index j = 0; j < n; ++j) {
+      const double denom = std::sqrt(cov(i, i) * cov(j, j));
+      const double rho = i == j ? 1.0 : denom > 0.0 ? cov(i, j) / denom : 0.0;
+      const double distance = std::fabs(pr.log10_tau(i) - pr.log10_tau(j));
+      z(i, j) = rho * sd(i) * sd(j) + d2 * std::exp(-distance / kDiscrepancyDecades);
+    }
+  }
+  // Neighbouring estimates correlate up to 0.99: a tiny ridge keeps the
+  // factorisation positive definite without changing the fit.
+  z.diagonal() *= 1.0 + 1e-9;
+  e.factor.compute(z);
+  if (e.factor.info() != Eigen::Success || (e.factor.vectorD().array() <= 0.0).any()) return e;
+  const double quad = e.residual.dot(e.factor.solve(e.residual));
+  const double log_det = e.factor.vectorD().array().log().sum();
+  e.minus_two_log_l = quad + log_det;
+  return e;
 }
 
 struct SubsetFit {
   Coefficients c{};
-  Eigen::MatrixXd covariance;  // of the included coefficients, naive (independent points)
+  Eigen::MatrixXd log_covariance;  // of ln c of the included terms
   std::vector<std::size_t> terms;
-  double log_likelihood = -std::numeric_limits<double>::infinity();
+  double minus_two_log_l = std::numeric_limits<double>::infinity();
   bool ok = false;
 };
 
-double log_likelihood(const std::vector<Point>& points, const Coefficients& c) {
-  double l = 0.0;
-  for (const Point& p : points) l += log_density(p.avar, model_avar(p, c), point_edf(p, c));
-  return l;
+// Jacobian of ln A with respect to ln c of the included terms.
+Eigen::MatrixXd jacobian(const Problem& pr, const Coefficients& c, const Eigen::VectorXd& model,
+                         const std::vector<std::size_t>& terms) {
+  const auto n = static_cast<Eigen::Index>(pr.points.size());
+  Eigen::MatrixXd j(n, static_cast<Eigen::Index>(terms.size()));
+  for (Eigen::Index i = 0; i < n; ++i) {
+    for (std::size_t k = 0; k < terms.size(); ++k) {
+      j(i, static_cast<Eigen::Index>(k)) = c[terms[k]] * pr.points[static_cast<std::size_t>(i)].basis[terms[k]] / model(i);
+    }
+  }
+  return j;
 }
 
-// Fisher scoring for the coefficients of `terms` (all others zero), kept
-// positive by step halving; a term whose coefficient collapses to nothing
-// makes the subset infeasible (the subset without it is fitted on its own).
-SubsetFit fit_subset(const std::vector<Point>& points, const std::vector<std::size_t>& terms) {
+// Gauss-Newton in ln c for the terms of the subset (the others zero), from
+// the least squares of the relative misfit; a term whose coefficient
+// collapses to nothing makes the subset infeasible (the subset without it
+// is fitted on its own).
+SubsetFit fit_subset(const Problem& pr, const std::vector<std::size_t>& terms) {
   SubsetFit fit;
   fit.terms = terms;
   const auto t = static_cast<Eigen::Index>(terms.size());
-  const auto n = static_cast<Eigen::Index>(points.size());
-  if (n < t) return fit;
-  // Start: least squares of the relative misfit, (model - avar) / avar.
+  const auto n = static_cast<Eigen::Index>(pr.points.size());
+  if (n <= t) return fit;
   Eigen::MatrixXd a(n, t);
-  Eigen::VectorXd ones = Eigen::VectorXd::Ones(n);
   Eigen::VectorXd scale(t);
   for (Eigen::Index j = 0; j < t; ++j) {
     double biggest = 0.0;
-    for (Eigen::Index i = 0; i < n; ++i) {
-      const Point& p = points[static_cast<std::size_t>(i)];
-      biggest = std::max(biggest, p.basis[terms[static_cast<std::size_t>(j)]] / p.avar);
-    }
+    for (const Point& p : pr.points) biggest = std::max(biggest, p.basis[terms[static_cast<std::size_t>(j)]] / p.avar);
     scale(j) = 1.0 / biggest;
     for (Eigen::Index i = 0; i < n; ++i) {
-      const Point& p = points[static_cast<std::size_t>(i)];
+      const Point& p = pr.points[static_cast<std::size_t>(i)];
       a(i, j) = p.basis[terms[static_cast<std::size_t>(j)]] / p.avar * scale(j);
     }
   }
-  const Eigen::VectorXd start = a.colPivHouseholderQr().solve(ones);
+  const Eigen::VectorXd start = a.colPivHouseholderQr().solve(Eigen::VectorXd::Ones(n));
   Coefficients c{};
   for (Eigen::Index j = 0; j < t; ++j) {
-    const std::size_t term = terms[static_cast<std::size_t>(j)];
-    // A negative start: a coefficient that gives 1 % of the smallest estimate.
-    c[term] = start(j) > 0.0 ? start(j) * scale(j) : 0.01 * scale(j);
+    // A negative start: a coefficient that gives 1 % of the largest estimate it could.
+    c[terms[static_cast<std::size_t>(j)]] = start(j) > 0.0 ? start(j) * scale(j) : 0.01 * scale(j);
   }
-  double current = log_likelihood(points, c);
-  Eigen::MatrixXd info(t, t);
-  for (int iteration = 0; iteration < 200; ++iteration) {
-    info.setZero();
-    Eigen::VectorXd score = Eigen::VectorXd::Zero(t);
-    for (const Point& p : points) {
-      const double model = model_avar(p, c);
-      const double w = 0.5 * point_edf(p, c) / (model * model);
-      for (Eigen::Index j = 0; j < t; ++j) {
-        const double xj = p.basis[terms[static_cast<std::size_t>(j)]];
-        score(j) += w * (p.avar - model) * xj;
-        for (Eigen::Index k = 0; k < t; ++k) info(j, k) += w * xj * p.basis[terms[static_cast<std::size_t>(k)]];
-      }
-    }
-    // Solve in coefficients relative to their current values (the powers of
-    // tau span many decades).
-    Eigen::VectorXd rel(t);
-    for (Eigen::Index j = 0; j < t; ++j) rel(j) = c[terms[static_cast<std::size_t>(j)]];
-    const Eigen::MatrixXd scaled = rel.asDiagonal() * info * rel.asDiagonal();
-    const Eigen::VectorXd step = scaled.ldlt().solve(rel.asDiagonal() * score);  // relative step
+  Evaluation current = evaluate(pr, c);
+  if (!std::isfinite(current.minus_two_log_l)) return fit;
+  for (int iteration = 0; iteration < 100; ++iteration) {
+    const Eigen::MatrixXd j = jacobian(pr, c, current.model, terms);
+    const Eigen::MatrixXd wj = current.factor.solve(j);
+    const Eigen::MatrixXd info = j.transpose() * wj;
+    const Eigen::VectorXd step = info.ldlt().solve(wj.transpose() * current.residual);
     if (!step.allFinite()) return fit;
     double length = 1.0;
-    Coefficients next = c;
     bool improved = false;
-    for (int halving = 0; halving < 40; ++halving, length *= 0.5) {
-      bool positive = true;
-      for (Eigen::Index j = 0; j < t; ++j) {
-        const std::size_t term = terms[static_cast<std::size_t>(j)];
-        next[term] = c[term] * (1.0 + length * step(j));
-        positive = positive && next[term] > 0.0;
+    Coefficients next = c;
+    for (int halving = 0; halving < 30; ++halving, length *= 0.5) {
+      for (Eigen::Index k = 0; k < t; ++k) {
+        const std::size_t term = terms[static_cast<std::size_t>(k)];
+        next[term] = c[term] * std::exp(std::clamp(length * step(k), -20.0, 20.0));
       }
-      if (!positive) continue;
-      const double trial = log_likelihood(points, next);
-      if (trial >= current - 1e-12 * std::fabs(current)) {
+      Evaluation trial = evaluate(pr, next);
+      if (trial.minus_two_log_l <= current.minus_two_log_l + 1e-9) {
         improved = true;
-        current = trial;
+        current = std::move(trial);
         break;
       }
     }
     if (!improved) break;
-    const double change = (length * step).cwiseAbs().maxCoeff();
     c = next;
-    if (change < 1e-10) break;
+    if ((length * step).cwiseAbs().maxCoeff() < 1e-8) break;
   }
   // Every term must matter somewhere: at least 0.01 % of the model at some point.
   for (std::size_t term : terms) {
     double share = 0.0;
-    for (const Point& p : points) share = std::max(share, c[term] * p.basis[term] / model_avar(p, c));
+    for (const Point& p : pr.points) share = std::max(share, c[term] * p.basis[term] / model_avar(p, c));
     if (share < 1e-4) return fit;
   }
-  info.setZero();
-  for (const Point& p : points) {
-    const double model = model_avar(p, c);
-    const double w = 0.5 * point_edf(p, c) / (model * model);
-    for (Eigen::Index j = 0; j < t; ++j) {
-      for (Eigen::Index k = 0; k < t; ++k) {
-        info(j, k) += w * p.basis[terms[static_cast<std::size_t>(j)]] * p.basis[terms[static_cast<std::size_t>(k)]];
-      }
-    }
-  }
-  Eigen::VectorXd rel(t);
-  for (Eigen::Index j = 0; j < t; ++j) rel(j) = c[terms[static_cast<std::size_t>(j)]];
-  const Eigen::MatrixXd scaled = rel.asDiagonal() * info * rel.asDiagonal();
-  const Eigen::MatrixXd relative_cov = scaled.ldlt().solve(Eigen::MatrixXd::Identity(t, t));
-  if (!relative_cov.allFinite()) return fit;
-  fit.covariance = rel.asDiagonal() * relative_cov * rel.asDiagonal();
+  const Eigen::MatrixXd j = jacobian(pr, c, current.model, terms);
+  const Eigen::MatrixXd info = j.transpose() * current.factor.solve(j);
+  fit.log_covariance = info.ldlt().solve(Eigen::MatrixXd::Identity(t, t));
+  if (!fit.log_covariance.allFinite()) return fit;
   fit.c = c;
-  fit.log_likelihood = current;
-  fit.ok = std::isfinite(current);
+  fit.minus_two_log_l = current.minus_two_log_l;
+  fit.ok = std::isfinite(current.minus_two_log_l);
   return fit;
 }
 
@@ -234,10 +287,19 @@ double mixture_edf(const NoiseFit& fit, double tau_s, std::size_t m, std::size_t
   return point_edf(p, c);
 }
 
-NoiseFit fit_noise_terms(std::span<const AllanPoint> points, std::size_t samples, const AllanOptions& options) {
-  std::vector<Point> prepared;
+NoiseFit fit_noise_terms(std::span<const AllanPoint> points, std::size_t samples, double rate_hz,
+                         const AllanOptions& options) {
+  Problem pr;
+  std::vector<std::size_t> sizes;
+  std::vector<double> logs;
+  std::vector<double> log_taus;
   for (const AllanPoint& ap : points) {
     if (!(ap.adev > 0.0) || !std::isfinite(ap.adev) || ap.m < 1 || 2 * ap.m > samples) continue;
+    // The longest cluster times hold one or two clusters: their estimate is
+    // chi-square with fewer than 2 EDF, whose logarithm has a tail to minus
+    // infinity (a pure random walk gives 0.1 % of its Allan variance there
+    // in one record of forty) that no normal approximation carries.
+    if (overlapping_avar_edf(PowerLawNoise::random_walk_rate, ap.m, samples) < options.min_edf) continue;
     Point p;
     p.avar = ap.adev * ap.adev;
     for (NoiseTerm t : kAllNoiseTerms) {
@@ -246,44 +308,103 @@ NoiseFit fit_noise_terms(std::span<const AllanPoint> points, std::size_t samples
       p.basis[j] = std::pow(ap.tau_s, noise_term_power(t));
       p.edf[j] = type ? overlapping_avar_edf(*type, ap.m, samples) : kMaxEdf;
     }
-    prepared.push_back(p);
+    pr.points.push_back(p);
+    sizes.push_back(ap.m);
+    logs.push_back(std::log(p.avar));
+    log_taus.push_back(std::log10(ap.tau_s));
   }
   NoiseFit out;
-  if (prepared.size() < 2) return out;
-  const double phi = options.correlation_factor;
-  std::optional<SubsetFit> best;
-  double best_criterion = std::numeric_limits<double>::infinity();
+  if (pr.points.size() < 3) return out;
+  pr.log_avar = Eigen::Map<const Eigen::VectorXd>(logs.data(), static_cast<Eigen::Index>(logs.size()));
+  pr.log10_tau = Eigen::Map<const Eigen::VectorXd>(log_taus.data(), static_cast<Eigen::Index>(log_taus.size()));
+  pr.discrepancy = options.model_discrepancy;
+  pr.covariance.emplace(sizes, samples, 1.0 / rate_hz);
+  std::vector<SubsetFit> fits;
+  std::vector<double> criteria;
   for (unsigned mask = 1; mask < (1u << kNoiseTerms); ++mask) {
     std::vector<std::size_t> terms;
     for (std::size_t j = 0; j < kNoiseTerms; ++j) {
       if ((mask >> j) & 1u) terms.push_back(j);
     }
-    SubsetFit f = fit_subset(prepared, terms);
+    // The ramp alone has no sampling noise to weigh the points by.
+    if (terms.size() == 1 && terms[0] == static_cast<std::size_t>(NoiseTerm::rate_ramp)) continue;
+    SubsetFit f = fit_subset(pr, terms);
     ++out.models_compared;
     if (!f.ok) continue;
-    const double criterion = -2.0 * f.log_likelihood / phi + options.term_penalty * static_cast<double>(terms.size());
-    if (criterion < best_criterion) {
-      best_criterion = criterion;
-      best = std::move(f);
+    criteria.push_back(f.minus_two_log_l + options.term_penalty * static_cast<double>(terms.size()));
+    fits.push_back(std::move(f));
+  }
+  if (fits.empty()) return out;
+  const auto best = static_cast<std::size_t>(std::min_element(criteria.begin(), criteria.end()) - criteria.begin());
+  out.valid = true;
+  out.log_likelihood = -0.5 * fits[best].minus_two_log_l;
+  out.criterion = criteria[best];
+  const double z = std::sqrt(chi_square_quantile(options.confidence, 1.0));
+  auto has = [](const SubsetFit& f, std::size_t j) { return std::find(f.terms.begin(), f.terms.end(), j) != f.terms.end(); };
+  // The term's coefficient, its relative standard error and interval in one fit.
+  auto interval = [&](const SubsetFit& f, std::size_t j, TermEstimate& e) {
+    const auto k = static_cast<Eigen::Index>(std::find(f.terms.begin(), f.terms.end(), j) - f.terms.begin());
+    const auto term = kAllNoiseTerms[j];
+    const double c = f.c[j];
+    e.relative_se = std::sqrt(std::max(0.0, f.log_covariance(k, k)));
+    e.value = term_value(term, c);
+    e.ci_low = term_value(term, c * std::exp(-z * e.relative_se));
+    e.ci_high = term_value(term, c * std::exp(z * e.relative_se));
+  };
+  // Models within the penalty of the best are not told apart by the data:
+  // a term's interval spans its intervals in all of them, so a choice the
+  // record cannot make (a ramp or a random walk at the longest tau, say)
+  // widens the interval instead of hiding in it.
+  std::vector<std::size_t> plausible;
+  for (std::size_t f = 0; f < fits.size(); ++f) {
+    if (criteria[f] - criteria[best] <= options.term_penalty) plausible.push_back(f);
+  }
+  for (std::size_t j = 0; j < kNoiseTerms; ++j) {
+    double without = std::numeric_limits<double>::infinity();
+    std::optional<std::size_t> best_with;
+    for (std::size_t f = 0; f < fits.size(); ++f) {
+      if (!has(fits[f], j)) {
+        without = std::min(without, criteria[f]);
+      } else if (!best_with || criteria[f] < criteria[*best_with]) {
+        best_with = f;
+      }
+    }
+    TermEstimate& e = out.terms[j];
+    if (!best_with) continue;
+    TermEstimate widest;
+    interval(fits[*best_with], j, widest);
+    for (std::size_t f : plausible) {
+      if (!has(fits[f], j)) continue;
+      TermEstimate other;
+      interval(fits[f], j, other);
+      widest.ci_low = std::min(widest.ci_low, other.ci_low);
+      widest.ci_high = std::max(widest.ci_high, other.ci_high);
+    }
+    if (has(fits[best], j) && without - criteria[best] > options.term_penalty) {
+      e.included = true;
+      interval(fits[best], j, e);
+      e.ci_low = std::min(e.ci_low, widest.ci_low);
+      e.ci_high = std::max(e.ci_high, widest.ci_high);
+    } else {
+      e.upper_bound = widest.ci_high;
     }
   }
-  if (!best) return out;
-  out.valid = true;
-  out.log_likelihood = best->log_likelihood / phi;
-  out.criterion = best_criterion;
-  const double z = std::sqrt(chi_square_quantile(options.confidence, 1.0));
-  for (std::size_t k = 0; k < best->terms.size(); ++k) {
-    const std::size_t j = best->terms[k];
-    const auto term = kAllNoiseTerms[j];
-    const double c = best->c[j];
-    const auto kk = static_cast<Eigen::Index>(k);
-    const double relative_se = std::sqrt(std::max(0.0, phi * best->covariance(kk, kk))) / c;
-    TermEstimate& e = out.terms[j];
-    e.included = true;
-    e.value = term_value(term, c);
-    e.relative_se = relative_se;
-    e.ci_low = term_value(term, c * std::exp(-z * relative_se));
-    e.ci_high = term_value(term, c * std::exp(z * relative_se));
+  // A rate random walk leaves a trend of its own in a record of length T: its
+  // least-squares slope has standard deviation K sqrt(6 / (5 T)), which the
+  // Allan variance cannot tell from a ramp. The ramp's interval (or bound)
+  // takes that in, with K at the top of its interval (or its bound).
+  TermEstimate& ramp = out.terms[static_cast<std::size_t>(NoiseTerm::rate_ramp)];
+  const TermEstimate& walk = out.terms[static_cast<std::size_t>(NoiseTerm::rate_random_walk)];
+  const double k_high = walk.included ? walk.ci_high : walk.upper_bound;
+  const double record_s = static_cast<double>(samples) / rate_hz;
+  const double trend_sd = k_high * std::sqrt(6.0 / (5.0 * record_s));
+  if (ramp.included && trend_sd > 0.0) {
+    const double fit_sd = 0.5 * ramp.relative_se * ramp.value;  // R ~ sqrt(c)
+    const double sd = std::hypot(fit_sd, trend_sd);
+    ramp.ci_low = std::min(ramp.ci_low, std::max(0.0, ramp.value - z * sd));
+    ramp.ci_high = std::max(ramp.ci_high, ramp.value + z * sd);
+  } else if (!ramp.included && trend_sd > 0.0) {
+    ramp.upper_bound = std::max(ramp.upper_bound, z * trend_sd);
   }
   return out;
 }

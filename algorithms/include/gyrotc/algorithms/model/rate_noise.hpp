@@ -26,7 +26,9 @@ struct RateNoise {
 // white deviates of standard deviation B filtered by h_0 = 1,
 // h_k = h_{k-1} (k - 1/2) / k (an FFT convolution), whose one-sided spectrum
 // B^2 / (pi f) gives the Allan floor (2 ln 2 / pi) B^2, i.e. B = floor / 0.664.
-// The random walk and the filter start at zero with the record.
+// The random walk (of which each sample is the mean over its period, so
+// that AVAR = K^2 tau / 3 holds down to tau0) and the filter start at zero
+// with the record.
 std::vector<double> generate_rate_noise(const RateNoise& noise, double rate_hz, std::size_t samples,
                                         std::uint64_t seed);
 

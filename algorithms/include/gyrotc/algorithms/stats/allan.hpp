@@ -35,16 +35,19 @@ struct AllanOptions {
   double points_per_decade = 10.0;
   // Confidence of the reported intervals (of each point and each term).
   double confidence = 0.95;
-  // The points' estimates are treated as independent in the likelihood, but
-  // neighbouring cluster times share most of their data: the log-likelihood
-  // is divided by this factor (a composite likelihood), which widens the
-  // terms' intervals by its square root and scales the penalty of each term.
-  // The value is calibrated by simulation on seeds apart from those the
-  // coverage table is made with (tools/allan_study.cpp, docs/ALLAN.md).
-  double correlation_factor = 3.0;
-  // Information criterion: a term is kept when it lowers -2 log L /
-  // correlation_factor by more than this (6.63 = the 1 % point of chi^2 with
-  // one degree of freedom).
+  // How far a record's Allan variance may depart from the five power laws
+  // without the fit chasing it: a relative standard deviation, correlated
+  // over half a decade of tau, added to the estimates' own. Real spectra are
+  // not exact power laws (filters, the sampling, 1/f noise that is 1/f only
+  // over some decades), and estimates with EDF 10^5 would otherwise claim a
+  // precision of 0.3 %. 2 % is an assumption, stated in docs/ALLAN.md.
+  double model_discrepancy = 0.02;
+  // The fit leaves out the cluster times whose estimate would have fewer
+  // EDF than this for a random walk of the rate (the fewest of the noise
+  // types): the last few, with one or two clusters.
+  double min_edf = 2.0;
+  // Information criterion: a term is kept when it lowers -2 log L by more
+  // than this (6.63 = the 1 % point of chi^2 with one degree of freedom).
   double term_penalty = 6.63;
 };
 
@@ -60,17 +63,28 @@ struct AllanPoint {
 
 // One noise term of the fit.
 struct TermEstimate {
-  bool included = false;  // the data support the term (information criterion)
+  // Resolved: the best model has the term and every model without it is
+  // worse by more than the term penalty. Otherwise the term is "not
+  // resolved": absent from the record, or not told apart from another term
+  // (a rate random walk that a short record shows as flat, say).
+  bool included = false;
   double value = 0.0;     // Q (u s), N (u sqrt(s)), B (u), K (u / sqrt(s)), R (u / s); 0 when not included
-  double ci_low = 0.0;    // confidence interval of the value
+  // Confidence interval of the value: its interval in the best model,
+  // widened to those of every model with the term whose criterion is within
+  // the term penalty of the best (the models the data do not tell apart).
+  double ci_low = 0.0;
   double ci_high = 0.0;
-  double relative_se = 0.0;  // standard error of the AVAR coefficient / the coefficient
+  double relative_se = 0.0;  // standard error of the AVAR coefficient / the coefficient, best model
+  // Not resolved: the upper end of the term's interval over the best-scoring
+  // model that has it and those within the penalty of the best (0 when no
+  // model with the term could be fitted).
+  double upper_bound = 0.0;
 };
 
 struct NoiseFit {
   std::array<TermEstimate, kNoiseTerms> terms{};
-  double log_likelihood = 0.0;  // of the chosen model, divided by the correlation factor
-  double criterion = 0.0;       // -2 log L / correlation factor + penalty per term
+  double log_likelihood = 0.0;  // of the chosen model
+  double criterion = 0.0;       // -2 log L + penalty per term
   std::size_t models_compared = 0;
   bool valid = false;           // false when no model could be fitted (too few points)
 
@@ -101,17 +115,22 @@ struct AllanResult {
 // non-finite rate_hz, or a non-finite sample.
 AllanResult allan_deviation(std::span<const double> rate, double rate_hz, const AllanOptions& options = {});
 
-// Fits the terms to the points of a record of `samples` samples over every
-// cluster time. Each point's Allan variance estimate is taken as
-// AVAR chi^2_nu / nu, nu its EDF (allan_edf.hpp) under the model's mixture
-// of noise types at that tau (1/nu = sum_j (share_j^2 / nu_j); the ramp is
-// deterministic), which gives a gamma likelihood. Every subset of the five
-// terms is fitted by maximum likelihood (Fisher scoring with positive
-// coefficients); the subset with the least criterion wins, so a term is
-// reported only when the data support it. Each coefficient's standard error
-// comes from the Fisher information times the correlation factor; its
-// interval is log-normal, so it stays positive.
-NoiseFit fit_noise_terms(std::span<const AllanPoint> points, std::size_t samples, const AllanOptions& options = {});
+// Fits the terms to the points of a record of `samples` samples at rate_hz
+// over every cluster time. The logarithms of the estimates are taken as
+// jointly normal: each ln(AVAR chi^2_nu / nu) with nu its EDF under the
+// model's mixture of noise types (mean ln AVAR + psi(nu/2) - ln(nu/2),
+// variance psi'(nu/2)), correlated across cluster times as the model's
+// covariance of the estimates says (allan_covariance.hpp), plus the model
+// discrepancy of the options. Every subset of
+// the five terms is fitted by maximum likelihood (Gauss-Newton in the
+// logarithms of the coefficients, so they stay positive); the subset with
+// the least criterion wins; a term is reported only when the data support
+// it against every model without it. Each coefficient's standard error
+// comes from the Fisher information; its interval is log-normal. The ramp's
+// interval also holds the trend a rate random walk leaves in the record,
+// K sqrt(6 / (5 T)) (the Allan variance cannot tell the two apart).
+NoiseFit fit_noise_terms(std::span<const AllanPoint> points, std::size_t samples, double rate_hz,
+                         const AllanOptions& options = {});
 
 // EDF of the Allan variance estimate at cluster size m (tau = m tau0) of a
 // record of `samples` samples under the fitted mixture of noise types:
