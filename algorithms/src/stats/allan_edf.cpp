@@ -83,11 +83,15 @@ double overlapping_avar_edf(PowerLawNoise noise, std::size_t m, std::size_t samp
   const double s = md;
   const double terms = n_phase - 2.0 * md;
   const double j_terms = std::min(terms, 3.0 * md);
-  const double r = terms / s;
   constexpr double kJmax = 100.0;
   if (alpha == 2) {
-    // Case 4: a closed form for white phase noise (a0 = C(8,4)/C(4,2)^2, a1 = d/2).
-    return 1.0 / ((1.0 / terms) * std::max(35.0 / 18.0 - 1.0 / r, 35.0 / 18.0 - 0.5));
+    // White angle noise: the second differences D_k correlate only at lags
+    // 0, m, 2m (6, -4, 1 times the variance), so the basic sum is exact in
+    // closed form: nu = 36 M^2 / (36 M + 32 (M - m)+ + 2 (M - 2m)+), the
+    // finite-r form of Greenhall's case 4 (1/nu -> (35/18) / M).
+    const double lag1 = std::max(0.0, terms - md);
+    const double lag2 = std::max(0.0, terms - 2.0 * md);
+    return 36.0 * terms * terms / (36.0 * terms + 32.0 * lag1 + 2.0 * lag2);
   }
   // Case 2 (alpha <= 0, unmodified), with the phase point-sampled: the
   // angle is the exact running sum of the rate samples, so no averaging
@@ -98,6 +102,7 @@ double overlapping_avar_edf(PowerLawNoise noise, std::size_t m, std::size_t samp
     const double z0 = sz(0.0, kInfinite, alpha);
     return z0 * z0 * terms / basic_sum(j_terms, terms, s, kInfinite, alpha);
   }
+  const double r = terms / s;
   if (r > 3.0) {
     double a0 = 0.0;
     double a1 = 0.0;

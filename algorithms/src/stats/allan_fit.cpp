@@ -91,8 +91,8 @@ double trigamma(double x) {
 struct Problem {
   std::vector<Point> points;
   Eigen::VectorXd log_avar;
-  Eigen::VectorXd log10_tau;
-  double discrepancy = 0.0;
+  // The model discrepancy's covariance in the log domain (fixed).
+  Eigen::MatrixXd discrepancy;
   std::optional<AvarCovariance> covariance;
 };
 
@@ -123,17 +123,17 @@ Evaluation evaluate(const Problem& pr, const Coefficients& c) {
     sd(i) = std::sqrt(trigamma(0.5 * nu));
   }
   // Correlations of the estimates, carried to their logarithms, plus the
-  // model's own discrepancy: smooth in log tau, relative sd `discrepancy`.
-  Eigen::MatrixXd z(n, n);
-  const double d2 = pr.discrepancy * pr.discrepancy;
+  // model's own discrepancy.
+  const Eigen::VectorXd scale = sd.cwiseQuotient(cov.diagonal().cwiseSqrt());
+  Eigen::MatrixXd z = scale.asDiagonal() * cov * scale.asDiagonal();
   for (Eigen::Index i = 0; i < n; ++i) {
-    for (Eigen::Index j = 0; j < n; ++j) {
-      const double denom = std::sqrt(cov(i, i) * cov(j, j));
-      const double rho = i == j ? 1.0 : denom > 0.0 ? cov(i, j) / denom : 0.0;
-      const double distance = std::fabs(pr.log10_tau(i) - pr.log10_tau(j));
-      z(i, j) = rho * sd(i) * sd(j) + d2 * std::exp(-distance / kDiscrepancyDecades);
+    if (!(cov(i, i) > 0.0)) {  // no sampling variance (a pure ramp): its own variance only
+      z.row(i).setZero();
+      z.col(i).setZero();
+      z(i, i) = sd(i) * sd(i);
     }
   }
+  z += pr.discrepancy;
   // Neighbouring estimates correlate up to 0.99: a tiny ridge keeps the
   // factorisation positive definite without changing the fit.
   z.diagonal() *= 1.0 + 1e-9;
@@ -195,7 +195,7 @@ SubsetFit fit_subset(const Problem& pr, const std::vector<std::size_t>& terms) {
   }
   Evaluation current = evaluate(pr, c);
   if (!std::isfinite(current.minus_two_log_l)) return fit;
-  for (int iteration = 0; iteration < 100; ++iteration) {
+  for (int iteration = 0; iteration < 50; ++iteration) {
     const Eigen::MatrixXd j = jacobian(pr, c, current.model, terms);
     const Eigen::MatrixXd wj = current.factor.solve(j);
     const Eigen::MatrixXd info = j.transpose() * wj;
@@ -204,7 +204,7 @@ SubsetFit fit_subset(const Problem& pr, const std::vector<std::size_t>& terms) {
     double length = 1.0;
     bool improved = false;
     Coefficients next = c;
-    for (int halving = 0; halving < 30; ++halving, length *= 0.5) {
+    for (int halving = 0; halving < 20; ++halving, length *= 0.5) {
       for (Eigen::Index k = 0; k < t; ++k) {
         const std::size_t term = terms[static_cast<std::size_t>(k)];
         next[term] = c[term] * std::exp(std::clamp(length * step(k), -20.0, 20.0));
@@ -218,7 +218,7 @@ SubsetFit fit_subset(const Problem& pr, const std::vector<std::size_t>& terms) {
     }
     if (!improved) break;
     c = next;
-    if ((length * step).cwiseAbs().maxCoeff() < 1e-8) break;
+    if ((length * step).cwiseAbs().maxCoeff() < 1e-6) break;
   }
   // Every term must matter somewhere: at least 0.01 % of the model at some point.
   for (std::size_t term : terms) {
@@ -290,6 +290,7 @@ double mixture_edf(const NoiseFit& fit, double tau_s, std::size_t m, std::size_t
 NoiseFit fit_noise_terms(std::span<const AllanPoint> points, std::size_t samples, double rate_hz,
                          const AllanOptions& options) {
   Problem pr;
+  const std::vector<std::size_t> fit_sizes = allan_cluster_sizes(samples, options.fit_points_per_decade);
   std::vector<std::size_t> sizes;
   std::vector<double> logs;
   std::vector<double> log_taus;
@@ -300,6 +301,7 @@ NoiseFit fit_noise_terms(std::span<const AllanPoint> points, std::size_t samples
     // infinity (a pure random walk gives 0.1 % of its Allan variance there
     // in one record of forty) that no normal approximation carries.
     if (overlapping_avar_edf(PowerLawNoise::random_walk_rate, ap.m, samples) < options.min_edf) continue;
+    if (!std::binary_search(fit_sizes.begin(), fit_sizes.end(), ap.m)) continue;
     Point p;
     p.avar = ap.adev * ap.adev;
     for (NoiseTerm t : kAllNoiseTerms) {
@@ -316,8 +318,15 @@ NoiseFit fit_noise_terms(std::span<const AllanPoint> points, std::size_t samples
   NoiseFit out;
   if (pr.points.size() < 3) return out;
   pr.log_avar = Eigen::Map<const Eigen::VectorXd>(logs.data(), static_cast<Eigen::Index>(logs.size()));
-  pr.log10_tau = Eigen::Map<const Eigen::VectorXd>(log_taus.data(), static_cast<Eigen::Index>(log_taus.size()));
-  pr.discrepancy = options.model_discrepancy;
+  const auto count = static_cast<Eigen::Index>(log_taus.size());
+  pr.discrepancy.resize(count, count);
+  const double d2 = options.model_discrepancy * options.model_discrepancy;
+  for (Eigen::Index i = 0; i < count; ++i) {
+    for (Eigen::Index j = 0; j < count; ++j) {
+      const double distance = std::fabs(log_taus[static_cast<std::size_t>(i)] - log_taus[static_cast<std::size_t>(j)]);
+      pr.discrepancy(i, j) = d2 * std::exp(-distance / kDiscrepancyDecades);
+    }
+  }
   pr.covariance.emplace(sizes, samples, 1.0 / rate_hz);
   std::vector<SubsetFit> fits;
   std::vector<double> criteria;
