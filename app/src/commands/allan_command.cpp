@@ -103,7 +103,9 @@ plot::Figure allan_figure(const stats::AllanResult& r, const std::string& title,
     if (!e.included) continue;
     const Quoted q = quoted(t);
     const int power = stats::noise_term_power(t);
-    std::snprintf(label, sizeof label, "%s = %.3g %s (slope %+g)", q.label, e.value * q.scale, q.unit, 0.5 * power);
+    static const char* slopes[] = {"-1", "-1/2", "0", "+1/2", "+1"};
+    std::snprintf(label, sizeof label, "%s = %.3g %s (slope %s)", q.label, e.value * q.scale, q.unit,
+                  slopes[static_cast<std::size_t>(power + 2)]);
     // ADEV of the term alone: sqrt(c) tau^(power / 2), drawn through tau = 1 s.
     p.series.push_back(plot::power_law_line(label, std::sqrt(stats::avar_coefficient(t, e.value)), 1.0, 0.5 * power,
                                             t0, t1, colors[static_cast<std::size_t>(t)]));
@@ -171,6 +173,7 @@ void run(const AllanOptions& o) {
       const std::string key = q.json_key;
       j[key] = e.included ? nlohmann::json(e.value * q.scale) : nlohmann::json(nullptr);
       j[key + "_ci"] = e.included ? nlohmann::json{e.ci_low * q.scale, e.ci_high * q.scale} : nlohmann::json(nullptr);
+      j[key + "_upper"] = !e.included && e.upper_bound > 0.0 ? nlohmann::json(e.upper_bound * q.scale) : nlohmann::json(nullptr);
     }
     j["fit_valid"] = r.fit.valid;
     if (!o.plot.empty()) j["plot"] = o.plot;
@@ -196,8 +199,10 @@ void run(const AllanOptions& o) {
     if (e.included) {
       std::printf("  %-22s %10.4g %-14s [%.4g, %.4g]\n", q.label, e.value * q.scale, q.unit, e.ci_low * q.scale,
                   e.ci_high * q.scale);
+    } else if (e.upper_bound > 0.0) {
+      std::printf("  %-22s %10s %-14s not resolved; below %.4g\n", q.label, "-", q.unit, e.upper_bound * q.scale);
     } else {
-      std::printf("  %-22s %10s %-14s (not resolved: the record does not support the term)\n", q.label, "-", q.unit);
+      std::printf("  %-22s %10s %-14s not resolved\n", q.label, "-", q.unit);
     }
   }
   if (!o.plot.empty()) std::printf("  plot: %s\n", o.plot.c_str());
@@ -227,7 +232,8 @@ void add_allan_command(CLI::App& app) {
                 "print one JSON object: samples, rate_hz, confidence, tau_s, adev_dps, adev_ci_low_dps,\n"
                 "adev_ci_high_dps, adev_edf, and per term quantisation_deg, arw_deg_per_rt_h,\n"
                 "bias_instability_deg_per_h, rrw_deg_per_h_per_rt_h, rate_ramp_deg_per_h2 (null when not\n"
-                "resolved) with its interval as KEY_ci = [low, high]");
+                "resolved) with its interval as KEY_ci = [low, high], or KEY_upper, the upper bound of a\n"
+                "term not resolved");
   cmd->callback([options] { run(*options); });
 }
 

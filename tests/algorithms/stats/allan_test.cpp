@@ -86,8 +86,8 @@ TEST_CASE("cluster sizes are log-spaced, finer than octaves, from 1 to n/2") {
 
 TEST_CASE("white noise: the angle random walk is recovered within 5 % and no other term is reported") {
   const double n_true = 0.01;  // deg/sqrt(s)
-  for (unsigned seed : {1u, 2u, 3u}) {
-    const auto y = synthetic(200000, 100.0, n_true, 0.0, seed);
+  for (unsigned seed : {1u, 2u}) {
+    const auto y = synthetic(60000, 100.0, n_true, 0.0, seed);
     const AllanResult r = allan_deviation(y, 100.0);
     REQUIRE(r.fit.valid);
     const TermEstimate& n = r.fit.term(NoiseTerm::angle_random_walk);
