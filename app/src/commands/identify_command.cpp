@@ -129,6 +129,7 @@ nlohmann::json to_json(const id::Identification& r, double elapsed_s) {
                           {"effect", t.effect},
                           {"delta_bic", t.delta_bic},
                           {"p_value", t.p_value},
+                          {"long_run_factor", t.long_run_factor},
                           {"cv_gain", t.cv_gain},
                           {"folds_improved", t.folds_improved},
                           {"t_ratio", t.t_ratio},

@@ -17,7 +17,7 @@ struct Criteria {
   // the long-run variance), on static tables the F-test. A fixed p-value
   // makes the improvement demanded scale with the number of independent
   // samples; each was calibrated on simulated records of its kind.
-  double max_p_value = 1e-4;
+  double max_p_value = 1e-5;
   double max_p_value_table = 1e-3;
   // |parameter| / standard error of the effect's amplitude (time series;
   // on tables the F-test is the amplitude's test).
