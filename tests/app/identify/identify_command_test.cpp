@@ -146,9 +146,10 @@ TEST_CASE("identify --out-plant writes a plant description with the effect found
   const auto record = gyrotc::identify::generate_record(spec);
   const fs::path csv = temp_path("record.csv");
   {
+    // Every 10th second: a smaller record, quicker under the sanitizers.
     std::ofstream out(csv);
     out << "time_s,ambient_c,sensor_c,gyro_mv\n";
-    for (std::size_t i = 0; i < record.time_s.size(); ++i) {
+    for (std::size_t i = 0; i < record.time_s.size(); i += 10) {
       out << record.time_s[i] << "," << record.ambient_c[i] << "," << record.sensor_c[i] << ","
           << record.gyro_mv[i] << "\n";
     }
