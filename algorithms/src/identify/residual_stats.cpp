@@ -134,4 +134,16 @@ double long_run_variance_factor(std::span<const double> residual, std::size_t ba
   return std::max(1.0, factor);
 }
 
+double lag1_autocorrelation(std::span<const double> residual) {
+  const std::size_t n = residual.size();
+  if (n < 3) return 0.0;
+  const Moments m = moments(residual);
+  if (m.var <= 0.0) return 0.0;
+  return std::clamp(autocorrelation(residual, m.mean, m.var, 1), 0.0, 0.99);
+}
+
+double effective_sample_size(std::size_t n, double rho) {
+  return std::max(2.0, static_cast<double>(n) * (1.0 - rho) / (1.0 + rho));
+}
+
 }  // namespace gyrotc::identify

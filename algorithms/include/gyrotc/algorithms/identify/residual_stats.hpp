@@ -23,4 +23,12 @@ double ljung_box_p(std::span<const double> residual, std::size_t lags);
 // (1994) rule floor(4 (n/100)^(2/9)).
 double long_run_variance_factor(std::span<const double> residual, std::size_t bandwidth = 0);
 
+// Lag-1 autocorrelation of a residual series, clamped to [0, 0.99] (tune's
+// thermal fit reports it and inflates its covariance by it).
+double lag1_autocorrelation(std::span<const double> residual);
+
+// Samples worth of independent information in n AR(1) samples with lag-1
+// correlation rho: n (1 - rho) / (1 + rho), at least 2.
+double effective_sample_size(std::size_t n, double rho);
+
 }  // namespace gyrotc::identify
