@@ -46,7 +46,8 @@ void run(benchmark::State& state, const app::TuneInput& input) {
   for (auto _ : state) {
     const app::TuneResult r = app::tune_from_record(input);
     rms_c = r.fit.rms_c;
-    benchmark::DoNotOptimize(r.controller.kp);
+    double kp = r.controller.kp;  // non-const: benchmark 1.8 deprecates the const-ref overload
+    benchmark::DoNotOptimize(kp);
   }
   state.counters["rows"] = static_cast<double>(input.record.time_s.size());
   state.counters["hours"] = (input.record.time_s.back() - input.record.time_s.front()) / 3600.0;

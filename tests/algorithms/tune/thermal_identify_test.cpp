@@ -200,7 +200,7 @@ TEST_CASE("the reported standard errors cover the truth of the plant simulator's
   const ThermalFit& fit = nominal_fit();
   // The casing node carries the die as well (0.5 % of its capacity), which the
   // standard error of a 2 h record cannot resolve: allow that and 4 sigma.
-  const tune::Estimate& a = estimate(fit, "peltier_per_a_s");
+  const tune::Estimate a = estimate(fit, "peltier_per_a_s");
   CHECK(std::fabs(a.value - truth_peltier(p)) < 4.0 * a.std_error + 0.006 * truth_peltier(p));
   CHECK(a.std_error > 0.0);
 }
@@ -214,7 +214,7 @@ TEST_CASE("a record without the ambient column still identifies the unit, the ro
   const ThermalFit& with_ambient = nominal_fit();
   CHECK(tune::holding_current_a(fit.model, 55.0, fit.ambient_c, 1.0) ==
         Approx(tune::holding_current_a(with_ambient.model, 55.0, 22.0, 1.0)).epsilon(0.03));
-  const tune::Estimate& room = estimate(fit, "ambient_c");
+  const tune::Estimate room = estimate(fit, "ambient_c");
   CHECK(std::fabs(room.value - 22.0) < 4.0 * room.std_error + 0.1);
 }
 
