@@ -306,8 +306,9 @@ dirent* __wrap_readdir(DIR* d) {
   return &dir->entry;
 }
 
-// With _FILE_OFFSET_BITS=64, glibc's <dirent.h> makes readdir() readdir64()
-// (since 2.39 on 64-bit targets too): a fake folder must answer both.
+// With _FILE_OFFSET_BITS=64 (the project sets it for 32-bit targets, and it
+// applies everywhere), glibc's <dirent.h> makes readdir() readdir64(), on
+// 64-bit targets too: a fake folder must answer both.
 dirent64* __wrap_readdir64(DIR* d) {
   if (!is_fake(d)) return __real_readdir64(d);
   auto* dir = reinterpret_cast<V2Dir*>(d);
