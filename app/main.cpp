@@ -19,6 +19,7 @@ int main(int argc, char** argv) {
   gyrotc::app::add_probe_command(cli);
   gyrotc::app::add_fit_command(cli);
   gyrotc::app::add_simulate_command(cli);
+  gyrotc::app::add_tune_command(cli);
   gyrotc::app::add_allan_command(cli);
   gyrotc::app::add_run_command(cli);
   gyrotc::app::add_record_command(cli);

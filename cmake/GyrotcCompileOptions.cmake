@@ -9,6 +9,10 @@ target_compile_options(gyrotc_options INTERFACE
   # __FILE__ (assertions, Catch2's test locations) relative to the source tree:
   # no build machine path in what is installed (Yocto's buildpaths QA check).
   -fmacro-prefix-map=${CMAKE_SOURCE_DIR}/=)
+# 64-bit file offsets and inode numbers on 32-bit targets (armhf): readdir()
+# of a filesystem with 64-bit directory cookies (the w1 sysfs tree under
+# qemu-arm, large ext4 directories) fails with EOVERFLOW without them.
+target_compile_definitions(gyrotc_options INTERFACE _FILE_OFFSET_BITS=64)
 
 if(GYROTC_SANITIZE)
   target_compile_options(gyrotc_options INTERFACE

@@ -62,16 +62,37 @@ class Section {
     return static_cast<std::uint64_t>(*node->value<std::int64_t>());
   }
 
-  // "chip:line", e.g. "gpiochip0:25" or "/dev/gpiochip1:DRDY".
+  // "chip:line", e.g. "gpiochip0:25" or "/dev/gpiochip1:DRDY", with the
+  // optional sibling keys <key>_bias ("as-is", "disabled", "pull-up",
+  // "pull-down") and <key>_active_low.
   hal::GpioRef gpio(const std::string& key, const hal::GpioRef& fallback) const {
     const toml::node* node = table_.get(key);
-    if (node == nullptr) return fallback;
-    const std::string text = string(key, "");
-    const std::size_t colon = text.rfind(':');
-    if (colon == std::string::npos || colon == 0 || colon + 1 == text.size()) {
-      fail(*node, key, "expected \"chip:line\" (e.g. \"gpiochip0:25\"), got \"" + text + "\"");
+    hal::GpioRef ref = fallback;
+    if (node != nullptr) {
+      const std::string text = string(key, "");
+      const std::size_t colon = text.rfind(':');
+      if (colon == std::string::npos || colon == 0 || colon + 1 == text.size()) {
+        fail(*node, key, "expected \"chip:line\" (e.g. \"gpiochip0:25\"), got \"" + text + "\"");
+      }
+      ref.chip = text.substr(0, colon);
+      ref.line = text.substr(colon + 1);
     }
-    return {text.substr(0, colon), text.substr(colon + 1)};
+    if (const toml::node* bias = table_.get(key + "_bias")) {
+      const std::string text = string(key + "_bias", "");
+      if (text == "as-is") {
+        ref.bias = hal::GpioBias::as_is;
+      } else if (text == "disabled") {
+        ref.bias = hal::GpioBias::disabled;
+      } else if (text == "pull-up") {
+        ref.bias = hal::GpioBias::pull_up;
+      } else if (text == "pull-down") {
+        ref.bias = hal::GpioBias::pull_down;
+      } else {
+        fail(*bias, key + "_bias", "expected \"as-is\", \"disabled\", \"pull-up\" or \"pull-down\", got \"" + text + "\"");
+      }
+    }
+    ref.active_low = boolean(key + "_active_low", ref.active_low);
+    return ref;
   }
 
   const toml::table* subtable(const std::string& key) const {
@@ -119,13 +140,51 @@ void parse_sensor(const toml::table& table, const std::string& name, const std::
   sensor.options.stuck_after_s = s.number("stuck_after_s", sensor.options.stuck_after_s, 0.0, kInf);
 }
 
-void parse_devices(const toml::table& table, const std::string& source, hal::LinuxBoardConfig& d) {
+// Two DS18B20s on the bus: each must be named, and not both alike, or the
+// casing sensor (the PID's input, the over-temperature latch's) can bind to
+// the ambient one.
+void check_sensor_ids(const Section& devices, const std::string& source, const hal::LinuxBoardConfig& d,
+                      bool list_bus) {
+  const auto& casing = d.casing_sensor;
+  const auto& ambient = *d.ambient_sensor;
+  const auto line_of = [&](const char* sensor) {
+    const toml::node* table = devices.get(sensor);
+    const toml::node* id = table != nullptr && table->is_table() ? table->as_table()->get("id") : nullptr;
+    return std::to_string((id != nullptr ? id : table)->source().begin.line);
+  };
+  const auto on_bus = [&]() -> std::string {
+    if (!list_bus) return " (ls " + casing.w1_root + ")";
+    const auto ids = hal::W1Sysfs::list_ds18b20(casing.w1_root);
+    if (!ids || ids->empty()) return " (no DS18B20 under " + casing.w1_root + " now)";
+    std::string text;
+    for (const std::string& id : *ids) text += (text.empty() ? "" : ", ") + id;
+    return " (on the bus now: " + text + ")";
+  };
+  const auto quoted = [](const std::string& id) { return "\"" + id + "\""; };
+  if (casing.id.empty()) {
+    throw InputError(source + ":" + line_of("casing_sensor") +
+                     ": devices.casing_sensor.id: empty, but a second DS18B20 is configured (ambient_sensor id " +
+                     quoted(ambient.id) + "): the casing sensor could bind to either; set both ids" + on_bus());
+  }
+  if (ambient.id.empty()) {
+    throw InputError(source + ":" + line_of("ambient_sensor") +
+                     ": devices.ambient_sensor.id: empty, but the casing sensor is " + quoted(casing.id) +
+                     ": the ambient sensor could bind to either; set both ids" + on_bus());
+  }
+  if (casing.id == ambient.id && casing.w1_root == ambient.w1_root) {
+    throw InputError(source + ":" + line_of("ambient_sensor") + ": devices.ambient_sensor.id: " + quoted(ambient.id) +
+                     " is the casing sensor's id too: one sensor cannot be both" + on_bus());
+  }
+}
+
+void parse_devices(const toml::table& table, const std::string& source, hal::LinuxBoardConfig& d, bool list_bus) {
   const Section devices(table, "devices", source,
                         {"adc", "rate_dac", "tec_dac", "opa548", "casing_sensor", "ambient_sensor"});
   {
     const toml::table* t = devices.subtable("adc");
     const Section s(t ? *t : kEmpty, "devices.adc", source,
-                    {"spi", "drdy", "fclk_hz", "vref_v", "spi_speed_hz", "latency_budget_s"});
+                    {"spi", "drdy", "drdy_bias", "drdy_active_low", "fclk_hz", "vref_v", "spi_speed_hz",
+                     "latency_budget_s"});
     d.adc_spi = s.string("spi", d.adc_spi);
     d.adc_drdy = s.gpio("drdy", d.adc_drdy);
     d.adc.fclk_hz = s.number("fclk_hz", d.adc.fclk_hz, 1.0, 10e6);
@@ -154,9 +213,14 @@ void parse_devices(const toml::table& table, const std::string& source, hal::Lin
   }
   {
     const toml::table* t = devices.subtable("opa548");
-    const Section s(t ? *t : kEmpty, "devices.opa548", source, {"es", "es_sense"});
+    const Section s(t ? *t : kEmpty, "devices.opa548", source,
+                    {"es", "es_bias", "es_active_low", "es_sense", "es_sense_bias", "es_sense_active_low"});
     d.opa548_es = s.gpio("es", d.opa548_es);
-    if (s.get("es_sense") != nullptr) d.opa548_es_sense = s.gpio("es_sense", {});
+    if (s.get("es_sense") != nullptr) {
+      d.opa548_es_sense = s.gpio("es_sense", {});
+    } else if (const toml::node* orphan = s.get("es_sense_bias") ? s.get("es_sense_bias") : s.get("es_sense_active_low")) {
+      s.fail(*orphan, "es_sense", "es_sense_bias / es_sense_active_low given without an es_sense line");
+    }
   }
   {
     const toml::table* t = devices.subtable("casing_sensor");
@@ -165,6 +229,7 @@ void parse_devices(const toml::table& table, const std::string& source, hal::Lin
   if (const toml::table* t = devices.subtable("ambient_sensor")) {
     d.ambient_sensor.emplace();
     parse_sensor(*t, "devices.ambient_sensor", source, *d.ambient_sensor);
+    check_sensor_ids(devices, source, d, list_bus);
   }
 }
 
@@ -190,9 +255,9 @@ BoardConfig parse_board_config(const toml::table& root, const std::string& sourc
     if (!node->is_table()) {
       throw InputError(source + ":" + std::to_string(node->source().begin.line) + ": devices: expected a table");
     }
-    parse_devices(*node->as_table(), source, config.devices);
+    parse_devices(*node->as_table(), source, config.devices, config.hal == HalKind::linux_devices);
   } else {
-    parse_devices(kEmpty, source, config.devices);
+    parse_devices(kEmpty, source, config.devices, config.hal == HalKind::linux_devices);
   }
 
   const auto table_of = [&](const char* key) -> const toml::table* {
@@ -214,10 +279,24 @@ BoardConfig parse_board_config(const toml::table& root, const std::string& sourc
   }
   {
     const toml::table* t = table_of("sim");
-    const Section s(t ? *t : kEmpty, "sim", source, {"seed", "thermal_step_s", "initial_temp_c"});
+    const Section s(t ? *t : kEmpty, "sim", source,
+                    {"seed", "thermal_step_s", "initial_temp_c", "adc_wake_min_us", "adc_wake_max_us",
+                     "adc_stall_probability", "adc_stall_max_us", "adc_irq_delay_max_us", "adc_spi_start_max_us",
+                     "adc_spi_return_max_us"});
     config.sim.seed = s.unsigned_integer("seed", config.sim.seed);
     config.sim.thermal_step_s = s.number("thermal_step_s", config.sim.thermal_step_s, 1e-4, 10.0);
     if (s.get("initial_temp_c") != nullptr) config.sim.initial_temp_c = s.number("initial_temp_c", 0.0, -55.0, 125.0);
+    hal::SimAds1251::Timing& a = config.sim.adc_timing;
+    const auto us = [&](const char* key, double fallback_s, double min_s) {
+      return s.number(key, fallback_s * 1e6, min_s * 1e6, 1e6) * 1e-6;
+    };
+    a.wake_min_s = us("adc_wake_min_us", a.wake_min_s, 0.0);
+    a.wake_max_s = us("adc_wake_max_us", a.wake_max_s, a.wake_min_s);
+    a.stall_probability = s.number("adc_stall_probability", a.stall_probability, 0.0, 1.0);
+    a.stall_max_s = us("adc_stall_max_us", std::max(a.stall_max_s, a.wake_max_s), a.wake_max_s);
+    a.irq_delay_max_s = us("adc_irq_delay_max_us", a.irq_delay_max_s, 0.0);
+    a.spi_start_max_s = us("adc_spi_start_max_us", a.spi_start_max_s, 0.0);
+    a.spi_return_max_s = us("adc_spi_return_max_us", a.spi_return_max_s, 0.0);
   }
   return config;
 }
@@ -241,6 +320,8 @@ hal::SimBoardOptions sim_board_options(const BoardConfig& config, SimTiming timi
   options.tec_current_limit_a = config.devices.tec.current_limit_a;
   options.sensor = config.devices.casing_sensor.options;
   options.ambient_sensor = config.devices.ambient_sensor.has_value();
+  options.opa548_sense = config.devices.opa548_es_sense.has_value();
+  options.adc_timing = config.sim.adc_timing;
   return options;
 }
 

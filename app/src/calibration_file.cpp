@@ -187,7 +187,7 @@ Calibration parse_calibration(std::string_view text, const std::string& name) {
   }
   const Reader top(root, "", name);
   top.only({"format", "version", "kind", "range_c", "scale_mv_per_dps", "polynomial", "piecewise",
-            "bp_network", "source"});
+            "bp_network", "spline", "source"});
   if (top.text("format") != kFormat) {
     top.fail(top.get("format"), "format", "expected \"" + std::string(kFormat) + "\"");
   }
@@ -197,10 +197,11 @@ Calibration parse_calibration(std::string_view text, const std::string& name) {
   const double scale = top.optional_number("scale_mv_per_dps").value_or(kSeedScaleMvPerDps);
   if (!(scale > 0.0)) top.fail(top.get("scale_mv_per_dps"), "scale_mv_per_dps", "must be positive");
   const std::string kind = top.text("kind");
-  if (kind != "polynomial" && kind != "piecewise" && kind != "bp_network" && kind != "paper_reference") {
+  if (kind != "polynomial" && kind != "piecewise" && kind != "bp_network" && kind != "spline" &&
+      kind != "paper_reference") {
     top.fail(top.get("kind"), "kind",
-             "expected \"polynomial\", \"piecewise\", \"bp_network\" or \"paper_reference\", got \"" + kind +
-                 "\"");
+             "expected \"polynomial\", \"piecewise\", \"spline\", \"bp_network\" or \"paper_reference\", got \"" +
+                 kind + "\"");
   }
   if (kind == "paper_reference") return Calibration{fit::BiasModel::paper_reference(), scale};
 
@@ -239,6 +240,30 @@ Calibration parse_calibration(std::string_view text, const std::string& name) {
       pw.segments.push_back(read_polynomial(s, lo, hi));
     }
     return Calibration{build(name, "piecewise", [&] { return fit::BiasModel::piecewise(pw); }), scale};
+  }
+  if (kind == "spline") {
+    const Reader r(top.table("spline"), "spline", name);
+    r.only({"knots_c", "values_mv", "second_derivatives"});
+    fit::Spline sp;
+    sp.knots_c = r.numbers("knots_c");
+    sp.values_mv = r.numbers("values_mv");
+    sp.second_derivatives = r.numbers("second_derivatives");
+    sp.t_min_c = range[0];
+    sp.t_max_c = range[1];
+    if (sp.knots_c.size() < 2) r.fail(r.get("knots_c"), "knots_c", "need at least 2 knots");
+    for (std::size_t i = 0; i < sp.knots_c.size(); ++i) {
+      const bool ascending = i == 0 || sp.knots_c[i] > sp.knots_c[i - 1];
+      if (!ascending || sp.knots_c[i] < range[0] || sp.knots_c[i] > range[1]) {
+        r.fail(r.get("knots_c"), "knots_c[" + std::to_string(i) + "]", "knots must ascend strictly inside range_c");
+      }
+    }
+    for (const char* key : {"values_mv", "second_derivatives"}) {
+      if (r.numbers(key).size() != sp.knots_c.size()) {
+        r.fail(r.get(key), key, "need one value per knot (" + std::to_string(sp.knots_c.size()) + "), got " +
+                                    std::to_string(r.numbers(key).size()));
+      }
+    }
+    return Calibration{build(name, "spline", [&] { return fit::BiasModel::spline(sp); }), scale};
   }
   {  // kind == "bp_network"
     const Reader r(top.table("bp_network"), "bp_network", name);
@@ -307,6 +332,10 @@ std::string format_calibration(const fit::BiasModel& model, double scale_mv_per_
     s += "in_sample_rms_dps = " + format_number(source.in_sample_rms_dps) + "\n";
     s += "loo_max_abs_dps = " + format_number(source.loo_max_abs_dps) + "\n";
     s += "loo_rms_dps = " + format_number(source.loo_rms_dps) + "\n";
+    if (source.nested_loo_max_abs_dps && source.nested_loo_rms_dps) {
+      s += "nested_loo_max_abs_dps = " + format_number(*source.nested_loo_max_abs_dps) + "\n";
+      s += "nested_loo_rms_dps = " + format_number(*source.nested_loo_rms_dps) + "\n";
+    }
   }
   auto polynomial = [&](const fit::Polynomial& p) {
     s += "# bias_mv = sum of coefficients_mv[k] * x^k, x = (T - center_c) / scale_c\n";
@@ -326,6 +355,16 @@ std::string format_calibration(const fit::BiasModel& model, double scale_mv_per_
       s += "\n[[piecewise.segment]]\n";
       polynomial(p);
     }
+  } else if (model.kind() == fit::BiasModel::Kind::spline) {
+    const fit::Spline& sp = *model.as_spline();
+    s += "\n[spline]\n";
+    s += "# cubic spline: on [x_i, x_i+1], with h = x_i+1 - x_i, a = (x_i+1 - T) / h, b = 1 - a,\n";
+    s += "# bias_mv = a y_i + b y_i+1 + ((a^3 - a) m_i + (b^3 - b) m_i+1) h^2 / 6\n";
+    s += "# (x: knots_c, y: values_mv, m: second_derivatives in mV/C^2); beyond the end knots the\n";
+    s += "# end intervals' cubics continue up to range_c\n";
+    s += "knots_c = " + format_numbers(sp.knots_c) + "\n";
+    s += "values_mv = " + format_numbers(sp.values_mv) + "\n";
+    s += "second_derivatives = " + format_numbers(sp.second_derivatives) + "\n";
   } else if (model.kind() == fit::BiasModel::Kind::bp_network) {
     const fit::BpNetwork& net = *model.as_bp_network();
     s += "\n[bp_network]\n";

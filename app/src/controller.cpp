@@ -5,6 +5,7 @@
 #include <limits>
 #include <stdexcept>
 #include <string>
+#include <utility>
 
 namespace gyrotc::app {
 namespace {
@@ -24,6 +25,11 @@ void validate(const ControllerConfig& c) {
   require(std::isfinite(c.feed_forward_a_per_c), "feed_forward_a_per_c", "must be a number");
   require(std::isfinite(c.setpoint_ramp_c_per_s) && c.setpoint_ramp_c_per_s >= 0.0,
           "setpoint_ramp_c_per_s", "must be zero or positive");
+  if (c.rail.known) {
+    require(std::isfinite(c.rail.pos_a) && std::isfinite(c.rail.neg_a) && c.rail.neg_a < c.rail.pos_a, "rail",
+            "neg_a must be below pos_a");
+    require(std::isfinite(c.rail.a_per_c) && c.rail.a_per_c >= 0.0, "rail.a_per_c", "must be zero or positive");
+  }
   require(std::isfinite(c.rate_dac_vref_v) && c.rate_dac_vref_v > 0.0, "rate_dac_vref_v",
           "must be positive");
   require(std::isfinite(c.rate_out_v_per_dps) && c.rate_out_v_per_dps > 0.0, "rate_out_v_per_dps",
@@ -100,6 +106,7 @@ void Controller::on_temperature(const hal::TemperatureReading& reading, double n
     good_streak_ = 0;
     return;
   }
+  reading_since_tick_ = true;
   if (reading.temp_c >= l.over_temp_c) set_flag(kFlagOverTempLatched, true);
   if (!have_casing_ || reading.temp_c != casing_c_) {
     changed_at_s_ = now_s;
@@ -146,9 +153,10 @@ void Controller::record_command(double current_a) noexcept {
   drive_hi_a_ = std::max(drive_hi_a_, current_a);
 }
 
-TecCommand Controller::off(double now_s) noexcept {
+TecCommand Controller::off(double now_s, double resume_a) noexcept {
   set_flag(kFlagTecOff, true);
   set_flag(kFlagTecSaturated, false);
+  if (pid_running_) resume_a_ = resume_a;
   pid_running_ = false;
   pid_.reset(0.0);
   record_command(0.0);
@@ -174,12 +182,33 @@ TecCommand Controller::on_pid_tick(double now_s) noexcept {
     good_streak_ = 0;
   }
 
-  const std::uint32_t stop = kTempFaults | kFlagOverTempLatched | kFlagOpa548Thermal;
-  if ((flags_ & stop) != 0 || !config_.pid_enabled) return off(now_s);
+  const bool new_reading = std::exchange(reading_since_tick_, false);
+  // The identification programme gets no glitch hold: a period with a sensor
+  // fault is a period at 0 A, and the record shows it.
+  if (program_ != nullptr && (flags_ & kTempFaults) != 0) return off(now_s, 0.0);
+  // A reading that went stale (invalid ones only, since the last valid one)
+  // ends a hold: off, to restart where the PID was once readings are good.
+  if ((flags_ & kFlagTempStale) != 0) return off(now_s, pid_.output());
+  const std::uint32_t stop = kFlagTempStuck | kFlagOverTempLatched | kFlagOpa548Thermal;
+  if ((flags_ & stop) != 0 || !config_.pid_enabled || program_finished()) return off(now_s, 0.0);
+  if (program_ != nullptr) return program_tick(now_s);
+  if ((flags_ & kFlagTempInvalid) != 0) {
+    if (!pid_running_) return off(now_s, resume_a_);  // not recovered yet (M good readings)
+    // Glitch tolerance: no valid reading this period, only invalid ones.
+    // Hold the last current (no step on old news) until the reading is stale.
+    if (!new_reading) {
+      record_command(command_.current_a);
+      command_.flags = flags_;
+      last_tick_s_ = now_s;
+      return command_;
+    }
+  }
 
   const double dt_s = pid_running_ ? now_s - last_tick_s_ : 0.0;
   if (!pid_running_) {
-    pid_.reset(0.0);
+    // Bumpless: the integral restarts where the PID was when a sensor fault
+    // (stale) stopped it, at 0 after any other stop; no derivative kick.
+    pid_.reset(std::exchange(resume_a_, 0.0));
     active_setpoint_c_ = config_.setpoint_ramp_c_per_s > 0.0 ? casing_c_ : config_.setpoint_c;
     pid_running_ = true;
   }
@@ -189,21 +218,62 @@ TecCommand Controller::on_pid_tick(double now_s) noexcept {
   } else {
     active_setpoint_c_ = config_.setpoint_c;
   }
-  const double u = pid_.step(casing_c_, active_setpoint_c_);
-  const double ff =
-      have_ambient_ ? config_.feed_forward_a_per_c * (config_.setpoint_c - ambient_c_) : 0.0;
-  const double current_a = std::clamp(u + ff, config_.pid.out_min, config_.pid.out_max);
+  const double ff = control::feed_forward_a(config_.feed_forward_a_per_c, config_.setpoint_c, ambient_reading());
+  // Anti-windup on the current applied (issue 22): control/tec_law.hpp.
+  const double current_a = control::pid_current_a(pid_, casing_c_, active_setpoint_c_, ff, applied_range());
+  return drive(current_a, pid_.saturated(), now_s);
+}
+
+control::CurrentRange Controller::applied_range() const noexcept {
+  return control::applied_range(config_.pid.out_min, config_.pid.out_max, config_.rail, casing_c_, ambient_reading());
+}
+
+double Controller::ambient_reading() const noexcept {
+  return have_ambient_ ? ambient_c_ : std::numeric_limits<double>::quiet_NaN();
+}
+
+TecCommand Controller::drive(double current_a, bool saturated, double now_s) noexcept {
   set_flag(kFlagTecOff, false);
-  set_flag(kFlagTecSaturated, pid_.saturated() || current_a != u + ff);
+  set_flag(kFlagTecSaturated, saturated);
   record_command(current_a);
   command_ = TecCommand{current_a, true, flags_};
   last_tick_s_ = now_s;
   return command_;
 }
 
+void Controller::run_program(control::TecProgram* program) noexcept {
+  program_ = program;
+  program_started_ = false;
+  program_finished_.store(false, std::memory_order_release);
+  pid_running_ = false;
+}
+
+TecCommand Controller::program_tick(double now_s) noexcept {
+  if (!program_started_) {
+    program_started_ = true;
+    program_start_s_ = now_s;
+  }
+  control::TecProgramInput in;
+  in.time_s = now_s - program_start_s_;
+  in.casing_c = casing_c_;
+  in.ambient_c = ambient_reading();
+  in.setpoint_c = config_.setpoint_c;
+  const control::CurrentRange range = applied_range();
+  in.min_a = range.min_a;
+  in.max_a = range.max_a;
+  active_setpoint_c_ = config_.setpoint_c;
+  const control::TecProgramOutput out = program_->next(in);
+  if (out.finished || !std::isfinite(out.current_a)) {
+    program_finished_.store(true, std::memory_order_release);
+    return off(now_s, 0.0);
+  }
+  const double current_a = std::clamp(out.current_a, in.min_a, in.max_a);
+  return drive(current_a, current_a != out.current_a, now_s);
+}
+
 TecCommand run_pid_tick(Controller& controller, hal::TecDriver& tec, double now_s) noexcept {
-  const auto thermal = tec.thermal_flag();
-  controller.on_opa548_thermal(!thermal.ok() || thermal.value(), now_s);
+  const auto thermal = tec.thermal_status();
+  controller.on_opa548_thermal(!thermal.ok() || thermal.value() == hal::ThermalStatus::shutdown, now_s);
   const TecCommand command = controller.on_pid_tick(now_s);
   if (command.enable && tec.set_current_a(command.current_a)) {
     (void)tec.enable(true);

@@ -8,6 +8,7 @@
 #include <utility>
 
 #include "gyrotc/algorithms/fit/compensator.hpp"
+#include "gyrotc/app/daemon/session.hpp"
 #include "gyrotc/app/errors.hpp"
 #include "gyrotc/hal/chips/ads1251.hpp"
 
@@ -20,7 +21,8 @@ LockstepRunner::LockstepRunner(hal::SimBoard& board, Controller& controller,
       controller_(controller),
       profile_(profile),
       options_(options),
-      adc_timeout_s_(options.adc_timeout_periods * board.adc_chip().sample_period_s()) {
+      adc_timeout_s_(options.adc_timeout_periods * board.adc_chip().sample_period_s()),
+      ambient_reading_c_(std::numeric_limits<double>::quiet_NaN()) {
   if (board.options().realtime) throw std::invalid_argument("the lockstep runner needs a lockstep SimBoard");
   const double t0 = devices_.clock.now_s();
   board_.set_ambient_c(profile_.ambient_c(t0));
@@ -71,7 +73,10 @@ void LockstepRunner::handle_events(double now) {
   if (delivery_s_ >= 0.0 && now >= delivery_s_) {
     controller_.on_temperature(casing_in_flight_, now);
     if (casing_in_flight_.valid) sensor_c_ = casing_in_flight_.temp_c;
-    if (devices_.ambient_sensor != nullptr) controller_.on_ambient_temperature(ambient_in_flight_, now);
+    if (devices_.ambient_sensor != nullptr) {
+      controller_.on_ambient_temperature(ambient_in_flight_, now);
+      if (ambient_in_flight_.valid) ambient_reading_c_ = ambient_in_flight_.temp_c;
+    }
     ++counters_.readings;
     delivery_s_ = -1.0;
   }
@@ -125,6 +130,9 @@ void LockstepRunner::emit_record(double now) {
   row.die_c = plant.die_c();
   row.tec_v = plant.tec_voltage_v();
   row.tec_a = plant.tec_current_a();
+  const TecCommand& command = controller_.last_command();
+  row.tec_command_a = command.enable ? command.current_a : 0.0;
+  row.ambient_reading_c = ambient_reading_c_;
   row.setpoint_c = controller_.active_setpoint_c();
   row.gyro_mv = row_sums_.mean_gyro_mv();
   row.rate_dps_compensated = row_sums_.mean_rate_dps();
@@ -268,7 +276,8 @@ SimulationResult run_simulation(const SimulationSetup& setup, const model::Chamb
   options.tec_current_limit_a = plant.current_limit_a;
   // An ambient DS18B20 only for a controller that uses it (the seed's board had
   // none): on the shared bus it costs the casing sensor a slot every 10 s.
-  options.ambient_sensor = setup.controller.feed_forward_a_per_c > 0.0;
+  options.ambient_sensor =
+      setup.ambient_sensor.value_or(setup.controller.feed_forward_a_per_c > 0.0 || setup.program != nullptr);
   hal::SimBoard board(plant, setup.seed, options);
   if (profile.start_s() > 0.0) board.advance_to(profile.start_s());
 
@@ -281,7 +290,17 @@ SimulationResult run_simulation(const SimulationSetup& setup, const model::Chamb
   result.rows.reserve(static_cast<std::size_t>(span_s / setup.lockstep.record_period_s) + 2);
   runner.on_record([&result](const RecordRow& row) { result.rows.push_back(row); });
   if (setup.on_sample) runner.on_sample(setup.on_sample);
-  runner.run_until(profile.end_s(), progress);
+  if (setup.program == nullptr) {
+    runner.run_until(profile.end_s(), progress);
+  } else {
+    // In steps, to end with the programme.
+    controller.run_program(setup.program);
+    constexpr double kStepS = 10.0;
+    while (runner.now_s() < profile.end_s() && !controller.program_finished()) {
+      runner.run_until(std::min(profile.end_s(), runner.now_s() + kStepS));
+      if (progress) progress(std::clamp((runner.now_s() - profile.start_s()) / span_s, 0.0, 1.0));
+    }
+  }
   result.counters = runner.counters();
   result.summary = summarize_run(result.rows, profile, setup.controller.setpoint_c,
                                  setup.scale_mv_per_dps);
@@ -305,6 +324,18 @@ void write_records_csv(const std::vector<RecordRow>& rows, const std::string& pa
   }
   const bool ok = std::ferror(f) == 0;
   if (std::fclose(f) != 0 || !ok) throw RuntimeFailure(path + ": cannot write the time series");
+}
+
+void write_board_record_csv(const std::vector<RecordRow>& rows, const std::string& path) {
+  std::FILE* f = std::fopen(path.c_str(), "w");
+  if (f == nullptr) throw RuntimeFailure(path + ": cannot write the record");
+  std::fprintf(f, "%s\n", kRecordCsvHeader);
+  for (const auto& r : rows) {
+    std::fprintf(f, "%.3f,%.4f,%.4f,%.5f,%.6f,%.5f,%.4f,%u\n", r.time_s, r.sensor_c, r.ambient_reading_c,
+                 r.gyro_mv, r.rate_dps_compensated, r.tec_command_a, r.setpoint_c, static_cast<unsigned>(r.flags));
+  }
+  const bool ok = std::ferror(f) == 0;
+  if (std::fclose(f) != 0 || !ok) throw RuntimeFailure(path + ": cannot write the record");
 }
 
 }  // namespace gyrotc::app

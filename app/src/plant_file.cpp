@@ -169,6 +169,10 @@ model::PlantParams parse_plant(std::string_view text, const std::string& name) {
       } else if (effect == "linear_drift") {
         read_effect<LinearDriftEffect>(name, effect, t, e.linear_drift,
                                        {{"d_mv_per_h", &LinearDriftEffect::d_mv_per_h}});
+      } else if (effect == "ambient_sensitivity") {
+        read_effect<AmbientSensitivityEffect>(
+            name, effect, t, e.ambient_sensitivity,
+            {{"k_mv_per_c", &AmbientSensitivityEffect::k_mv_per_c}, {"ref_c", &AmbientSensitivityEffect::ref_c}});
       } else if (effect == "tec_joule_heating") {
         read_effect<TecJouleHeatingEffect>(name, effect, t, e.tec_joule_heating,
                                            {{"r_ohm", &TecJouleHeatingEffect::r_ohm}});
@@ -234,6 +238,9 @@ std::string format_plant(const model::PlantParams& params) {
   if (e.warm_up)
     out += "\n[effects.warm_up]\na_mv = " + num(e.warm_up->a_mv) + "\ntau_s = " + num(e.warm_up->tau_s) + "\n";
   if (e.linear_drift) out += "\n[effects.linear_drift]\nd_mv_per_h = " + num(e.linear_drift->d_mv_per_h) + "\n";
+  if (e.ambient_sensitivity)
+    out += "\n[effects.ambient_sensitivity]\nk_mv_per_c = " + num(e.ambient_sensitivity->k_mv_per_c) +
+           "\nref_c = " + num(e.ambient_sensitivity->ref_c) + "\n";
   if (e.tec_joule_heating)
     out += "\n[effects.tec_joule_heating]\nr_ohm = " + num(e.tec_joule_heating->r_ohm) + "\n";
   return out;

@@ -16,6 +16,7 @@ std::string_view to_string(ErrorCode code) {
     case ErrorCode::invalid_config: return "invalid configuration";
     case ErrorCode::bad_data: return "bad data";
     case ErrorCode::fault: return "device fault";
+    case ErrorCode::busy: return "device busy";
   }
   return "unknown";
 }

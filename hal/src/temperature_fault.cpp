@@ -14,6 +14,8 @@ std::string_view to_string(TempFault fault) {
     case TempFault::stuck: return "stuck value";
     case TempFault::parse_error: return "unparseable";
     case TempFault::io_error: return "i/o error";
+    case TempFault::resolution: return "resolution below 12 bit (write 12 to its resolution file)";
+    case TempFault::ambiguous: return "several DS18B20s and no id configured";
   }
   return "unknown";
 }

@@ -51,7 +51,16 @@ void IncrementalPid::reset(double output) noexcept {
 }
 
 double IncrementalPid::step(double measured, double setpoint) noexcept {
+  return step(measured, setpoint, params_.out_min, params_.out_max);
+}
+
+double IncrementalPid::step(double measured, double setpoint, double out_min, double out_max) noexcept {
   if (!std::isfinite(measured) || !std::isfinite(setpoint)) return output_;
+  if (!std::isfinite(out_min) || !std::isfinite(out_max)) {
+    out_min = params_.out_min;
+    out_max = params_.out_max;
+  }
+  out_max = std::max(out_min, out_max);
   const double e = measured - setpoint;  // seed: e(k) = c(k) - r(k)
   if (!started_) {
     // Bumpless: pretend the error has been e for ever, so the derivative is
@@ -65,12 +74,11 @@ double IncrementalPid::step(double measured, double setpoint) noexcept {
   const double v_pd = state_ - (a_pd_ * e - b_ * e1_ + c_ * e2_);
   const double integral_step = -(a_pid_ - a_pd_) * e;  // -Kp T/TI e(k)
   const bool in_band = std::fabs(e) <= params_.xi_c;  // seed: PID while |e| <= xi
-  const bool winds_up = (v_pd >= params_.out_max && integral_step > 0.0) ||
-                        (v_pd <= params_.out_min && integral_step < 0.0);
+  const bool winds_up = (v_pd >= out_max && integral_step > 0.0) || (v_pd <= out_min && integral_step < 0.0);
   integrating_ = in_band && !winds_up;
   state_ = integrating_ ? v_pd + integral_step : v_pd;
-  output_ = std::clamp(state_, params_.out_min, params_.out_max);
-  saturated_ = state_ > params_.out_max || state_ < params_.out_min;
+  output_ = std::clamp(state_, out_min, out_max);
+  saturated_ = state_ > out_max || state_ < out_min;
   e2_ = e1_;
   e1_ = e;
   return output_;

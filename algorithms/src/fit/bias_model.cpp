@@ -89,7 +89,42 @@ void check_network(const BpNetwork& net) {
   }
 }
 
+void check_spline(const Spline& sp) {
+  const std::size_t n = sp.knots_c.size();
+  if (n < 2) invalid("knots_c", "need at least 2 knots");
+  if (sp.values_mv.size() != n) {
+    invalid("values_mv", "need one value per knot (" + std::to_string(n) + "), got " + std::to_string(sp.values_mv.size()));
+  }
+  if (sp.second_derivatives.size() != n) {
+    invalid("second_derivatives", "need one per knot (" + std::to_string(n) + "), got " +
+                                      std::to_string(sp.second_derivatives.size()));
+  }
+  check_finite(sp.knots_c, "knots_c");
+  check_finite(sp.values_mv, "values_mv");
+  check_finite(sp.second_derivatives, "second_derivatives");
+  for (std::size_t i = 1; i < n; ++i) {
+    if (!(sp.knots_c[i] > sp.knots_c[i - 1])) invalid("knots_c[" + std::to_string(i) + "]", "knots must ascend strictly");
+  }
+  check_range(sp.t_min_c, sp.t_max_c, "");
+  if (sp.t_min_c > sp.knots_c.front() || sp.t_max_c < sp.knots_c.back()) {
+    invalid("t_min_c/t_max_c", "the range must contain every knot");
+  }
+}
+
 }  // namespace
+
+double evaluate(const Spline& spline, double temp_c) noexcept {
+  const std::vector<double>& x = spline.knots_c;
+  // Interval i with x[i] <= T < x[i+1]; the end intervals continue outside the knots.
+  const auto above = std::upper_bound(x.begin() + 1, x.end() - 1, temp_c);
+  const auto i = static_cast<std::size_t>(above - x.begin()) - 1;
+  const double h = x[i + 1] - x[i];
+  const double a = (x[i + 1] - temp_c) / h;
+  const double b = 1.0 - a;
+  const double* y = spline.values_mv.data() + i;
+  const double* m = spline.second_derivatives.data() + i;
+  return a * y[0] + b * y[1] + ((a * a * a - a) * m[0] + (b * b * b - b) * m[1]) * (h * h / 6.0);
+}
 
 double evaluate(const Polynomial& poly, double temp_c) noexcept {
   const double x = (temp_c - poly.center_c) / poly.scale_c;
@@ -126,7 +161,7 @@ double evaluate(const BpNetwork& net, double temp_c) noexcept {
   return net.out_center_mv + net.out_half_range_mv * in[0];
 }
 
-BiasModel::BiasModel(Kind kind, std::variant<Polynomial, Piecewise, BpNetwork> model,
+BiasModel::BiasModel(Kind kind, std::variant<Polynomial, Piecewise, BpNetwork, Spline> model,
                      double t_min_c, double t_max_c)
     : kind_(kind), model_(std::move(model)), t_min_c_(t_min_c), t_max_c_(t_max_c) {}
 
@@ -151,6 +186,13 @@ BiasModel BiasModel::bp_network(BpNetwork net) {
   return BiasModel(Kind::bp_network, std::move(net), lo, hi);
 }
 
+BiasModel BiasModel::spline(Spline spline) {
+  check_spline(spline);
+  const double lo = spline.t_min_c;
+  const double hi = spline.t_max_c;
+  return BiasModel(Kind::spline, std::move(spline), lo, hi);
+}
+
 BiasModel BiasModel::paper_reference() {
   // Seed Section 4.2, the three printed segments in raw T (C), V_bias in mV.
   Piecewise pw;
@@ -172,6 +214,7 @@ std::string_view BiasModel::kind_name() const noexcept {
     case Kind::piecewise: return "piecewise";
     case Kind::bp_network: return "bp_network";
     case Kind::paper_reference: return "paper_reference";
+    case Kind::spline: return "spline";
   }
   return "unknown";
 }
@@ -184,6 +227,7 @@ double BiasModel::bias_mv(double temp_c) const noexcept {
     while (i < pw->breakpoints_c.size() && t > pw->breakpoints_c[i]) ++i;
     return evaluate(pw->segments[i], t);
   }
+  if (const auto* sp = std::get_if<Spline>(&model_)) return evaluate(*sp, t);
   return evaluate(std::get<BpNetwork>(model_), t);
 }
 
@@ -194,6 +238,7 @@ std::size_t BiasModel::parameter_count() const noexcept {
     for (const auto& s : pw->segments) n += s.coefficients_mv.size();
     return n;
   }
+  if (const auto* sp = std::get_if<Spline>(&model_)) return 3 * sp->knots_c.size();
   std::size_t n = 0;
   for (const auto& layer : std::get<BpNetwork>(model_).layers) n += layer.weights.size() + layer.biases.size();
   return n;

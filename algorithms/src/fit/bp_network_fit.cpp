@@ -169,10 +169,12 @@ void check_options(const BpTrainOptions& o) {
   }
 }
 
-// One Levenberg-Marquardt training from one seed.
+// One Levenberg-Marquardt training: initial weights from init_seed, the
+// validation split from split_seed (the same split for every restart, so
+// that their held-out errors compare).
 BpTrainResult train_once(std::span<const double> temp_c, std::span<const double> value,
-                         const BpTrainOptions& options, std::uint64_t seed, double t_min_c,
-                         double t_max_c) {
+                         const BpTrainOptions& options, std::uint64_t split_seed, std::uint64_t init_seed,
+                         double t_min_c, double t_max_c) {
   const std::size_t n = temp_c.size();
   if (n < 3 || value.size() != n) throw std::invalid_argument("bp network: need at least 3 points");
   if (!(t_min_c < t_max_c)) {
@@ -187,7 +189,7 @@ BpTrainResult train_once(std::span<const double> temp_c, std::span<const double>
   result_net.out_center_mv = 0.5 * (*vlo + *vhi);
   result_net.out_half_range_mv = *vhi > *vlo ? 0.5 * (*vhi - *vlo) : 1.0;
 
-  Random rng(seed);
+  Random rng(split_seed);
   // Validation split: interior points only, picked by a seeded shuffle.
   std::vector<std::size_t> order(n);
   std::iota(order.begin(), order.end(), 0);
@@ -208,7 +210,8 @@ BpTrainResult train_once(std::span<const double> temp_c, std::span<const double>
   }
 
   Net net(options.hidden);
-  net.initialise(rng);
+  Random init(init_seed);
+  net.initialise(init);
   const auto m = static_cast<Eigen::Index>(xt.size());
   const Eigen::Index p = net.size();
   Eigen::MatrixXd jac(m, p);
@@ -272,21 +275,13 @@ BpTrainResult train_once(std::span<const double> temp_c, std::span<const double>
       break;
     }
   }
-  result.seed_used = seed;
+  result.seed_used = init_seed;
   result.train_mse = mse(net, best, xt, yt);
   result.validation_mse = held > 0 ? best_validation : 0.0;
+  result.validation_points = held;
   result_net.layers = net.layers(best);
   result.net = std::move(result_net);
   return result;
-}
-
-double total_mse(const BpNetwork& net, std::span<const double> temp_c, std::span<const double> value) {
-  double s = 0.0;
-  for (std::size_t i = 0; i < temp_c.size(); ++i) {
-    const double e = (value[i] - evaluate(net, temp_c[i])) / net.out_half_range_mv;
-    s += e * e;
-  }
-  return s / static_cast<double>(temp_c.size());
 }
 
 }  // namespace
@@ -295,13 +290,14 @@ BpTrainResult train_bp_network(std::span<const double> temp_c, std::span<const d
                                const BpTrainOptions& options, double t_min_c, double t_max_c) {
   check_options(options);
   BpTrainResult best;
-  double best_mse = std::numeric_limits<double>::infinity();
-  Random seeds(options.seed);  // each restart draws its own seed from the user's
+  double best_error = std::numeric_limits<double>::infinity();
+  Random seeds(options.seed);  // each restart draws its initial weights' seed from the user's
   for (int r = 0; r < options.restarts; ++r) {
-    BpTrainResult trial = train_once(temp_c, value, options, seeds.next(), t_min_c, t_max_c);
-    const double m = total_mse(trial.net, temp_c, value);
-    if (m < best_mse) {
-      best_mse = m;
+    BpTrainResult trial = train_once(temp_c, value, options, options.seed, seeds.next(), t_min_c, t_max_c);
+    // The held-out points judge the restarts; without a split, the training error.
+    const double error = trial.validation_points > 0 ? trial.validation_mse : trial.train_mse;
+    if (error < best_error) {
+      best_error = error;
       best = std::move(trial);
     }
   }

@@ -1,6 +1,7 @@
 #include "gyrotc/algorithms/fit/cross_validation.hpp"
 
 #include <algorithm>
+#include <cmath>
 #include <stdexcept>
 
 #include "gyrotc/algorithms/stats/summary.hpp"
@@ -41,6 +42,35 @@ std::vector<double> residuals(const BiasModel& model, std::span<const double> te
 FitErrors fit_errors(std::span<const double> in_sample_residuals, std::span<const double> loo) {
   return FitErrors{stats::max_abs(in_sample_residuals), stats::rms(in_sample_residuals),
                    stats::max_abs(loo), stats::rms(loo)};
+}
+
+CvScore cv_score(double dof, std::span<const double> loo) {
+  if (loo.empty()) throw std::invalid_argument("cv score: no residuals");
+  const auto n = static_cast<double>(loo.size());
+  double mean = 0.0;
+  for (double r : loo) mean += r * r;
+  mean /= n;
+  double var = 0.0;
+  for (double r : loo) var += (r * r - mean) * (r * r - mean);
+  const double sd = loo.size() > 1 ? std::sqrt(var / (n - 1.0)) : 0.0;
+  return CvScore{dof, mean, sd / std::sqrt(n)};
+}
+
+std::size_t one_standard_error_choice(std::span<const CvScore> scores) {
+  if (scores.empty()) throw std::invalid_argument("one-standard-error rule: no candidates");
+  std::size_t best = 0;
+  for (std::size_t i = 1; i < scores.size(); ++i) {
+    if (scores[i].mse < scores[best].mse) best = i;
+  }
+  const double limit = scores[best].mse + scores[best].se;
+  std::size_t chosen = best;
+  for (std::size_t i = 0; i < scores.size(); ++i) {
+    if (!(scores[i].mse <= limit)) continue;
+    if (scores[i].dof < scores[chosen].dof || (scores[i].dof == scores[chosen].dof && scores[i].mse < scores[chosen].mse)) {
+      chosen = i;
+    }
+  }
+  return chosen;
 }
 
 }  // namespace gyrotc::fit

@@ -146,6 +146,7 @@ SeriesRecord generate_record(const RecordSpec& s) {
     }
     const double sensor =
         s.quantise_sensor ? std::round(casing / kDs18b20StepC) * kDs18b20StepC : casing;
+    effects.set_ambient_c(chamber.at(t));
     r.time_s.push_back(t);
     r.ambient_c.push_back(chamber.at(t));
     r.sensor_c.push_back(sensor);

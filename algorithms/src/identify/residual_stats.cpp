@@ -41,6 +41,37 @@ double upper_gamma_q(double a, double x) {
   return std::clamp(std::exp(log_prefix) * h, 0.0, 1.0);
 }
 
+// Regularised incomplete beta I_x(a, b) by Lentz's continued fraction,
+// using the symmetry I_x(a, b) = 1 - I_{1-x}(b, a) where it converges slowly.
+double incomplete_beta(double a, double b, double x) {
+  if (x <= 0.0) return 0.0;
+  if (x >= 1.0) return 1.0;
+  if (x > (a + 1.0) / (a + b + 2.0)) return 1.0 - incomplete_beta(b, a, 1.0 - x);
+  const double log_prefix =
+      std::lgamma(a + b) - std::lgamma(a) - std::lgamma(b) + a * std::log(x) + b * std::log1p(-x);
+  const double tiny = 1e-300;
+  double c = 1.0;
+  double d = 1.0 - (a + b) * x / (a + 1.0);
+  if (std::fabs(d) < tiny) d = tiny;
+  d = 1.0 / d;
+  double h = d;
+  for (int m = 1; m < 1000; ++m) {
+    const double md = m;
+    double num = md * (b - md) * x / ((a + 2.0 * md - 1.0) * (a + 2.0 * md));
+    for (int half = 0; half < 2; ++half) {
+      d = 1.0 + num * d;
+      if (std::fabs(d) < tiny) d = tiny;
+      c = 1.0 + num / c;
+      if (std::fabs(c) < tiny) c = tiny;
+      d = 1.0 / d;
+      h *= d * c;
+      num = -(a + md) * (a + b + md) * x / ((a + 2.0 * md) * (a + 2.0 * md + 1.0));
+    }
+    if (std::fabs(d * c - 1.0) < 1e-15) break;
+  }
+  return std::clamp(std::exp(log_prefix) * h / a, 0.0, 1.0);
+}
+
 double autocorrelation(std::span<const double> r, double mean, double var, std::size_t lag) {
   double s = 0.0;
   for (std::size_t i = lag; i < r.size(); ++i) s += (r[i] - mean) * (r[i - lag] - mean);
@@ -65,6 +96,11 @@ Moments moments(std::span<const double> r) {
 
 double chi_square_sf(double x, double dof) { return upper_gamma_q(0.5 * dof, 0.5 * x); }
 
+double f_sf(double f, double dof1, double dof2) {
+  if (!(f > 0.0)) return 1.0;
+  return incomplete_beta(0.5 * dof2, 0.5 * dof1, dof2 / (dof2 + dof1 * f));
+}
+
 double ljung_box_p(std::span<const double> residual, std::size_t lags) {
   const std::size_t n = residual.size();
   if (n < 4) return 1.0;
@@ -79,6 +115,23 @@ double ljung_box_p(std::span<const double> residual, std::size_t lags) {
   }
   q *= nd * (nd + 2.0);
   return chi_square_sf(q, static_cast<double>(lags));
+}
+
+double long_run_variance_factor(std::span<const double> residual, std::size_t bandwidth) {
+  const std::size_t n = residual.size();
+  if (n < 4) return 1.0;
+  const Moments m = moments(residual);
+  if (m.var <= 0.0) return 1.0;
+  if (bandwidth == 0) {
+    bandwidth = static_cast<std::size_t>(4.0 * std::pow(static_cast<double>(n) / 100.0, 2.0 / 9.0));
+  }
+  bandwidth = std::clamp<std::size_t>(bandwidth, 1, n / 2);
+  double factor = 1.0;
+  for (std::size_t k = 1; k <= bandwidth; ++k) {
+    const double weight = 1.0 - static_cast<double>(k) / static_cast<double>(bandwidth + 1);
+    factor += 2.0 * weight * autocorrelation(residual, m.mean, m.var, k);
+  }
+  return std::max(1.0, factor);
 }
 
 double lag1_autocorrelation(std::span<const double> residual) {

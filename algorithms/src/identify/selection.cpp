@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
+#include <limits>
 #include <map>
 #include <set>
 #include <span>
@@ -18,6 +20,8 @@ std::span<const double> as_span(const Eigen::VectorXd& v) {
 double parameter_count(const SeparableFit& fit) {
   return static_cast<double>(fit.beta.size()) + static_cast<double>(fit.theta.size());
 }
+
+bool is_series(const SelectionProblem& p) { return !p.time_s.empty(); }
 
 SeparableModel subset_model(const SeparableModel& model, const std::vector<Eigen::Index>& rows) {
   SeparableModel sub = model;
@@ -36,59 +40,215 @@ SeparableModel subset_model(const SeparableModel& model, const std::vector<Eigen
   return sub;
 }
 
-// Held-out sum of squares per fold of the model with `effects`.
-std::vector<double> fold_sse(const SelectionProblem& problem, const SeparableModel& model,
-                             const SeparableFit& fit) {
-  std::vector<double> sse(static_cast<std::size_t>(problem.folds), 0.0);
+// A model fitted and scored: theta by (unweighted) least squares, the linear
+// parameters, residual and covariance under its noise model.
+struct Scored {
+  SeparableModel model;
+  SeparableFit fit;
+  WanderNoise noise;
+  double log_likelihood = 0.0;
+  double lrv_factor = 1.0;
+  Eigen::MatrixXd covariance;  // of [beta; theta], scaled
+  // Series: the whitened Jacobian [design, d/d theta] and residual.
+  Eigen::MatrixXd white_jacobian;
+  Eigen::VectorXd white_residual;
+};
+
+// fixed_noise: test under this noise model (the model without the candidate's)
+// instead of fitting one; nullptr fits it, searching from `start` if given.
+Scored score(const SelectionProblem& problem, SeparableModel model, SeparableFit fit,
+             const WanderNoise* fixed_noise = nullptr, const WanderNoise* start = nullptr) {
+  Scored s;
   const Eigen::Index n = problem.y.size();
+  const double nd = static_cast<double>(n);
+  const double dof = std::max(1.0, nd - parameter_count(fit));
+  if (!is_series(problem)) {
+    s.log_likelihood = -0.5 * nd * std::log(std::max(fit.sse / nd, 1e-300));
+    s.covariance = fit.covariance_unscaled * (fit.sse / dof);
+    s.model = std::move(model);
+    s.fit = std::move(fit);
+    return s;
+  }
+  // Noise and linear part by alternating: the noise fitted to the residual
+  // by maximum likelihood, the linear part by GLS under it, until the
+  // likelihood stops rising. The least-squares residual alone would
+  // understate slow wander (the flexible bias curve soaks part of it up).
+  Eigen::MatrixXd design;
+  Eigen::VectorXd offset;
+  model.evaluate(fit.theta, design, offset);
+  const Eigen::VectorXd data = problem.y - offset;
+  GlsFit gls;
+  gls.log_likelihood = -std::numeric_limits<double>::infinity();
+  Eigen::VectorXd residual = fit.residual;
+  for (int iter = 0; iter < (fixed_noise ? 1 : 4); ++iter) {
+    WanderNoise noise = fixed_noise ? *fixed_noise
+                                    : fit_wander_noise(residual, problem.time_s, problem.white_scale,
+                                                       problem.wander_tau_min_s, problem.wander_tau_max_s,
+                                                       iter == 0 ? start : &s.noise);
+    GlsFit next = fit_gls(data, design, noise, problem.time_s, problem.white_scale);
+    if (!(next.log_likelihood > gls.log_likelihood + 0.01)) break;
+    // The filter uses the ratio of wander to white variance; the white
+    // variance is this fit's.
+    noise.wander_var *= next.white_var / noise.white_var;
+    noise.white_var = next.white_var;
+    s.noise = noise;
+    gls = std::move(next);
+    residual = data - design * gls.beta;
+  }
+  s.log_likelihood = gls.log_likelihood;
+  s.lrv_factor = long_run_variance_factor(as_span(gls.white_residual));
+  fit.beta = gls.beta;
+  fit.prediction = offset + design * fit.beta;
+  fit.residual = problem.y - fit.prediction;
+  fit.sse = fit.residual.squaredNorm();
+  const Whitener whitener(s.noise, problem.time_s, problem.white_scale);
+  s.white_jacobian = model_jacobian(model, fit.theta, fit.beta);
+  whitener.apply(s.white_jacobian);
+  fit.covariance_unscaled = inverse_normal(s.white_jacobian);
+  s.covariance = fit.covariance_unscaled * (gls.white_var * s.lrv_factor);
+  s.white_residual = gls.white_residual;
+  s.model = std::move(model);
+  s.fit = std::move(fit);
+  return s;
+}
+
+struct HeldOut {
+  std::vector<double> fold_sse;
+  std::vector<double> unit_sse;
+  std::vector<double> fold_count;  // held-out samples scored per fold
+};
+
+int unit(const SelectionProblem& p, Eigen::Index i) {
+  const auto k = static_cast<std::size_t>(i);
+  return p.unit_of.empty() ? p.fold_of[k] : p.unit_of[k];
+}
+
+// The samples each fold scores: its own, less (with max_held_out_leverage)
+// those whose prediction from the training folds' baseline is an
+// extrapolation: leverage x' (X_train' X_train)^-1 x above the limit.
+std::vector<std::vector<bool>> scored_rows(const SelectionProblem& problem, const SeparableModel& baseline,
+                                           const std::vector<double>& theta) {
+  const Eigen::Index n = problem.y.size();
+  std::vector<std::vector<bool>> out(static_cast<std::size_t>(problem.folds), std::vector<bool>(static_cast<std::size_t>(n)));
+  for (Eigen::Index i = 0; i < n; ++i) {
+    out[static_cast<std::size_t>(problem.fold_of[static_cast<std::size_t>(i)])][static_cast<std::size_t>(i)] = true;
+  }
+  if (!(problem.max_held_out_leverage > 0.0)) return out;
+  Eigen::MatrixXd design;
+  Eigen::VectorXd offset;
+  baseline.evaluate(theta, design, offset);
+  const Eigen::MatrixXd normal = design.transpose() * design;
   for (int f = 0; f < problem.folds; ++f) {
+    std::vector<Eigen::Index> rows;
+    for (Eigen::Index i = 0; i < n; ++i) {
+      if (out[static_cast<std::size_t>(f)][static_cast<std::size_t>(i)]) rows.push_back(i);
+    }
+    Eigen::MatrixXd held(static_cast<Eigen::Index>(rows.size()), design.cols());
+    for (std::size_t r = 0; r < rows.size(); ++r) held.row(static_cast<Eigen::Index>(r)) = design.row(rows[r]);
+    Eigen::MatrixXd train = normal - held.transpose() * held;
+    // Columns scaled by the whole record's normal matrix, and a ridge of
+    // 1e-8 of it: a basis function the training rows barely touch gets a
+    // large leverage instead of a singular solve.
+    Eigen::VectorXd scale(train.rows());
+    for (Eigen::Index j = 0; j < train.rows(); ++j) scale(j) = normal(j, j) > 0.0 ? 1.0 / std::sqrt(normal(j, j)) : 1.0;
+    train = scale.asDiagonal() * train * scale.asDiagonal();
+    train.diagonal().array() += 1e-8;
+    const Eigen::MatrixXd scaled_held = held * scale.asDiagonal();
+    const Eigen::MatrixXd solved = train.ldlt().solve(scaled_held.transpose());
+    for (std::size_t r = 0; r < rows.size(); ++r) {
+      const double leverage = scaled_held.row(static_cast<Eigen::Index>(r)).dot(solved.col(static_cast<Eigen::Index>(r)));
+      if (leverage > problem.max_held_out_leverage) out[static_cast<std::size_t>(f)][static_cast<std::size_t>(rows[r])] = false;
+    }
+  }
+  return out;
+}
+
+template <typename T>
+T take(const T& v, const std::vector<Eigen::Index>& rows) {
+  T out(static_cast<Eigen::Index>(rows.size()), v.cols());
+  for (std::size_t r = 0; r < rows.size(); ++r) out.row(static_cast<Eigen::Index>(r)) = v.row(rows[r]);
+  return out;
+}
+
+std::vector<double> take(const std::vector<double>& v, const std::vector<Eigen::Index>& rows) {
+  std::vector<double> out;
+  if (v.empty()) return out;
+  for (Eigen::Index r : rows) out.push_back(v[static_cast<std::size_t>(r)]);
+  return out;
+}
+
+// Held-out squared errors of `model` at theta, per fold and per unit.
+// Series: the linear part is refitted by GLS on the training folds alone
+// (their own noise filter, the held-out blocks a gap), then the residual of
+// the training and scored held-out samples is run through the noise filter
+// and the held-out samples' innovations are scored: one-step-ahead errors
+// of model plus wander forecast, independent when the noise model holds, so
+// interleaved blocks are fair even under slow wander. Tables: plain errors,
+// theta refitted per fold when refit_theta_in_cv.
+HeldOut held_out(const SelectionProblem& problem, const SeparableModel& model, const std::vector<double>& theta,
+                 const WanderNoise* noise, const std::vector<std::vector<bool>>& scored) {
+  const Eigen::Index n = problem.y.size();
+  HeldOut h;
+  h.fold_sse.assign(static_cast<std::size_t>(problem.folds), 0.0);
+  h.fold_count.assign(static_cast<std::size_t>(problem.folds), 0.0);
+  int units = 0;
+  for (Eigen::Index i = 0; i < n; ++i) units = std::max(units, unit(problem, i) + 1);
+  h.unit_sse.assign(static_cast<std::size_t>(units), 0.0);
+  const auto add = [&](Eigen::Index i, int fold, double r) {
+    h.fold_sse[static_cast<std::size_t>(fold)] += r * r;
+    h.fold_count[static_cast<std::size_t>(fold)] += 1.0;
+    h.unit_sse[static_cast<std::size_t>(unit(problem, i))] += r * r;
+  };
+  Eigen::MatrixXd design;
+  Eigen::VectorXd offset;
+  if (noise != nullptr) model.evaluate(theta, design, offset);
+
+  for (int f = 0; f < problem.folds; ++f) {
+    const std::vector<bool>& score_row = scored[static_cast<std::size_t>(f)];
     std::vector<bool> train(static_cast<std::size_t>(n));
     std::vector<Eigen::Index> train_rows;
     for (Eigen::Index i = 0; i < n; ++i) {
       train[static_cast<std::size_t>(i)] = problem.fold_of[static_cast<std::size_t>(i)] != f;
       if (train[static_cast<std::size_t>(i)]) train_rows.push_back(i);
     }
-    std::vector<double> theta = fit.theta;
-    if (problem.refit_theta_in_cv && !theta.empty()) {
-      Eigen::VectorXd train_y(static_cast<Eigen::Index>(train_rows.size()));
-      for (std::size_t r = 0; r < train_rows.size(); ++r) {
-        train_y(static_cast<Eigen::Index>(r)) = problem.y(train_rows[r]);
+    if (noise == nullptr) {
+      std::vector<double> fold_theta = theta;
+      if (problem.refit_theta_in_cv && !theta.empty()) {
+        // LM from the full-data optimum: the fold moves it only a little.
+        SeparableModel sub = subset_model(model, train_rows);
+        sub.theta_grid = {theta};
+        fold_theta = fit_separable(take(problem.y, train_rows), sub).theta;
       }
-      // LM from the full-data optimum: the fold moves it only a little.
-      SeparableModel sub = subset_model(model, train_rows);
-      sub.theta_grid = {fit.theta};
-      theta = fit_separable(train_y, sub).theta;
-    }
-    const Eigen::VectorXd prediction = predict_with_theta(problem.y, model, theta, train);
-    std::vector<bool> covered(static_cast<std::size_t>(n), true);
-    if (!problem.coverage_key.empty()) {
-      const auto cell = [&](Eigen::Index i) {
-        return static_cast<long>(std::floor(problem.coverage_key[static_cast<std::size_t>(i)] /
-                                            problem.coverage_cell));
-      };
-      std::map<long, int> training_count;
-      for (Eigen::Index i : train_rows) ++training_count[cell(i)];
+      const Eigen::VectorXd prediction = predict_with_theta(problem.y, model, fold_theta, train);
       for (Eigen::Index i = 0; i < n; ++i) {
-        const auto it = training_count.find(cell(i));
-        covered[static_cast<std::size_t>(i)] = it != training_count.end() && it->second >= 3;
+        if (score_row[static_cast<std::size_t>(i)]) add(i, f, problem.y(i) - prediction(i));
       }
+      continue;
     }
+    const Whitener train_filter(*noise, take(problem.time_s, train_rows), take(problem.white_scale, train_rows));
+    Eigen::MatrixXd train_design = take(design, train_rows);
+    Eigen::VectorXd train_y = take(Eigen::VectorXd(problem.y - offset), train_rows);
+    train_filter.apply(train_design);
+    train_filter.apply(train_y);
+    const Eigen::VectorXd beta = solve_linear(train_design, train_y);
+    std::vector<Eigen::Index> rows;
     for (Eigen::Index i = 0; i < n; ++i) {
-      if (!train[static_cast<std::size_t>(i)] && covered[static_cast<std::size_t>(i)]) {
-        const double r = problem.y(i) - prediction(i);
-        sse[static_cast<std::size_t>(f)] += r * r;
-      }
+      if (train[static_cast<std::size_t>(i)] || score_row[static_cast<std::size_t>(i)]) rows.push_back(i);
+    }
+    Eigen::VectorXd residual = take(Eigen::VectorXd(problem.y - offset - design * beta), rows);
+    const Whitener filter(*noise, take(problem.time_s, rows), take(problem.white_scale, rows));
+    filter.apply(residual);
+    for (std::size_t r = 0; r < rows.size(); ++r) {
+      if (score_row[static_cast<std::size_t>(rows[r])]) add(rows[r], f, residual(static_cast<Eigen::Index>(r)));
     }
   }
-  return sse;
+  return h;
 }
 
-std::vector<double> fold_rms(const SelectionProblem& problem, const std::vector<double>& sse) {
-  std::vector<double> counts(sse.size(), 0.0);
-  for (int f : problem.fold_of) counts[static_cast<std::size_t>(f)] += 1.0;
-  std::vector<double> out(sse.size());
-  for (std::size_t f = 0; f < sse.size(); ++f) {
-    out[f] = counts[f] > 0 ? std::sqrt(sse[f] / counts[f]) : 0.0;
+std::vector<double> fold_rms(const HeldOut& h) {
+  std::vector<double> out(h.fold_sse.size());
+  for (std::size_t f = 0; f < out.size(); ++f) {
+    out[f] = h.fold_count[f] > 0 ? std::sqrt(h.fold_sse[f] / h.fold_count[f]) : 0.0;
   }
   return out;
 }
@@ -100,13 +260,39 @@ double correlation(const Eigen::VectorXd& a, const Eigen::VectorXd& b) {
   return denom > 0.0 ? ac.dot(bc) / denom : 0.0;
 }
 
+// Whether the runner-up's held-out error is not worse than the best's by z
+// standard errors of the mean paired difference over the held-out units.
+bool held_out_tie(const std::vector<double>& best, const std::vector<double>& other, double z) {
+  std::vector<double> d;
+  for (std::size_t u = 0; u < best.size() && u < other.size(); ++u) {
+    if (best[u] > 0.0 || other[u] > 0.0) d.push_back(other[u] - best[u]);
+  }
+  if (d.size() < 3) return true;
+  double mean = 0.0;
+  for (double v : d) mean += v;
+  mean /= static_cast<double>(d.size());
+  double var = 0.0;
+  for (double v : d) var += (v - mean) * (v - mean);
+  var /= static_cast<double>(d.size() - 1);
+  return mean < z * std::sqrt(var / static_cast<double>(d.size()));
+}
+
 struct Trial {
   std::string effect;
-  SeparableFit fit;
+  std::vector<std::string> effects;  // the model's, with this one
+  Scored scored;
   CandidateScore score;
   EffectReadout readout;
-  std::vector<double> fold_sse_after;
+  HeldOut before;  // the current model's, under this candidate's noise model
+  HeldOut after;
   Eigen::VectorXd added_signal;
+};
+
+// A passing candidate's standing against the others of its round.
+struct Standing {
+  const Trial* trial = nullptr;
+  double delta_bic = 0.0;
+  HeldOut held;
 };
 
 std::string join(const std::vector<std::string>& names) {
@@ -115,107 +301,218 @@ std::string join(const std::vector<std::string>& names) {
   return out;
 }
 
+bool in_group(const SelectionProblem& p, const std::string& a, const std::string& b) {
+  for (const auto& g : p.confounded) {
+    const bool has_a = std::find(g.begin(), g.end(), a) != g.end();
+    const bool has_b = std::find(g.begin(), g.end(), b) != g.end();
+    if (has_a && has_b) return true;
+  }
+  return false;
+}
+
+// The Newey-West long-run variance factor of an amplitude's estimate: the
+// regressor with the other columns partialled out (Frisch-Waugh: the
+// whitened Jacobian times the amplitude's column of (J'J)^-1) times the
+// whitened residual, Bartlett weights over a bandwidth of three fitted
+// wander correlation times and at least 30 min, long against the wander of
+// a gyro (issue 22: 30..1000 s).
+double amplitude_long_run_factor(const SelectionProblem& problem, const Scored& s, Eigen::Index index) {
+  constexpr double kMinBandwidthS = 1800.0;
+  const Eigen::VectorXd z = s.white_jacobian * s.fit.covariance_unscaled.col(index);
+  const Eigen::VectorXd v = z.cwiseProduct(s.white_residual);
+  const double span = problem.time_s.back() - problem.time_s.front();
+  const double step = span / static_cast<double>(std::max<Eigen::Index>(1, v.size() - 1));
+  const auto lags = static_cast<std::size_t>(std::max(kMinBandwidthS, 3.0 * s.noise.tau_s) / step);
+  // Sums of v, not its variance about a mean: v has mean zero under the
+  // model, and centring would remove the slow part that matters.
+  const double gamma0 = v.squaredNorm();
+  if (!(gamma0 > 0.0)) return 1.0;
+  double factor = 1.0;
+  const std::size_t n = static_cast<std::size_t>(v.size());
+  for (std::size_t k = 1; k <= lags && k < n; ++k) {
+    const double weight = 1.0 - static_cast<double>(k) / static_cast<double>(lags + 1);
+    const auto kk = static_cast<Eigen::Index>(k);
+    factor += 2.0 * weight * v.head(v.size() - kk).dot(v.tail(v.size() - kk)) / gamma0;
+  }
+  return std::max(1.0, factor);
+}
+
+// One candidate (or probe) on top of the current model: fit, evidence,
+// held-out errors, readout, and the decision.
+Trial try_candidate(const SelectionProblem& problem, const Criteria& criteria, const Scored& current,
+                    const std::vector<std::vector<bool>>& scored, const std::vector<std::string>& effects,
+                    const std::string& effect, int round, bool probe) {
+  Trial trial;
+  trial.effect = effect;
+  trial.effects = effects;
+  trial.effects.push_back(effect);
+  SeparableModel model = problem.build(trial.effects);
+  if (!current.fit.theta.empty()) {
+    // The effects already in keep their fitted theta as the start; only the
+    // new effect's theta is searched on its grid (then LM refines all).
+    std::set<std::vector<double>> starts;
+    for (const auto& g : model.theta_grid) {
+      std::vector<double> start = current.fit.theta;
+      start.insert(start.end(), g.begin() + static_cast<std::ptrdiff_t>(current.fit.theta.size()), g.end());
+      starts.insert(std::move(start));
+    }
+    model.theta_grid.assign(starts.begin(), starts.end());
+  }
+  SeparableFit ols = fit_separable(problem.y, model);
+  const bool at_bound = ols.theta_at_bound;
+  // A library effect is tested with the noise refitted by REML (the
+  // likelihood ratio of the two models, each with its own wander). A probe,
+  // a catch-all with many degrees of freedom in time, is tested under the
+  // current model's noise: a record holds few slow degrees of freedom, and
+  // refitting the wander after the probe soaked part of it up would credit
+  // the probe with the wander's variance too.
+  const bool fixed_noise = probe && is_series(problem);
+  trial.scored = score(problem, std::move(model), std::move(ols), fixed_noise ? &current.noise : nullptr,
+                       is_series(problem) ? &current.noise : nullptr);
+  const Scored& t = trial.scored;
+  CandidateScore& s = trial.score;
+  s.round = round;
+  s.effect = effect;
+
+  const double n = static_cast<double>(problem.y.size());
+  const double dk = std::max(1.0, parameter_count(t.fit) - parameter_count(current.fit));
+  double lr = 0.0;
+  if (is_series(problem)) {
+    lr = std::max(0.0, 2.0 * (t.log_likelihood - current.log_likelihood) / t.lrv_factor);
+    s.p_value = chi_square_sf(lr, dk);
+    s.delta_bic = lr - dk * std::log(n / t.lrv_factor);
+  } else {
+    const double dof = n - parameter_count(t.fit);
+    const double fall = current.fit.sse - t.fit.sse;
+    s.p_value = dof >= 1.0 && fall > 0.0 && t.fit.sse > 0.0 ? f_sf(fall / dk / (t.fit.sse / dof), dk, dof)
+                                                            : (fall > 0.0 && t.fit.sse <= 0.0 ? 0.0 : 1.0);
+    s.delta_bic = n * std::log(std::max(current.fit.sse, 1e-300) / std::max(t.fit.sse, 1e-300)) - dk * std::log(n);
+  }
+
+  if (probe) {
+    trial.readout.t_ratio = 1e9;  // a probe has no single amplitude; the test is joint
+    trial.readout.in_bounds = true;
+  } else {
+    trial.readout = problem.readout(effect, trial.effects, t.fit, t.covariance);
+  }
+  if (is_series(problem) && trial.readout.amplitude_index >= 0) {
+    s.long_run_factor = amplitude_long_run_factor(problem, t, trial.readout.amplitude_index);
+    s.p_value = chi_square_sf(lr / s.long_run_factor, dk);
+    trial.readout.t_ratio /= std::sqrt(s.long_run_factor);
+  }
+  s.t_ratio = trial.readout.t_ratio;
+  s.in_bounds = trial.readout.in_bounds && (probe || !at_bound);
+
+  // Both models' held-out errors under the current model's noise.
+  const WanderNoise* noise = is_series(problem) ? &t.noise : nullptr;
+  trial.after = held_out(problem, t.model, t.fit.theta, noise, scored);
+  trial.before = held_out(problem, current.model, current.fit.theta, noise, scored);
+  double sum_before = 0.0;
+  double sum_after = 0.0;
+  for (std::size_t f = 0; f < trial.after.fold_sse.size(); ++f) {
+    sum_before += trial.before.fold_sse[f];
+    sum_after += trial.after.fold_sse[f];
+    if (trial.after.fold_sse[f] < trial.before.fold_sse[f]) ++s.folds_improved;
+  }
+  s.cv_gain = sum_before > 0.0 ? (sum_before - sum_after) / sum_before : 0.0;
+  trial.added_signal = t.fit.prediction - current.fit.prediction;
+
+  char reason[96];
+  if (s.p_value > (is_series(problem) ? criteria.max_p_value : criteria.max_p_value_table)) {
+    std::snprintf(reason, sizeof reason, "evidence too weak (p = %.2g)", s.p_value);
+    s.reason = reason;
+  } else if (s.cv_gain < criteria.min_cv_gain ||
+             s.folds_improved < std::min(criteria.min_folds_improved, problem.folds)) {
+    s.reason = "held-out folds do not improve";
+  } else if (is_series(problem) && s.t_ratio < criteria.min_t_ratio) {
+    // Tables: the F-test is the amplitude's test (t^2 = F for one linear
+    // parameter); a Wald ratio of a nonlinear parameter on a dozen points is
+    // not a calibrated second opinion.
+    s.reason = "confidence interval includes zero";
+  } else if (!s.in_bounds) {
+    s.reason = "parameters outside physical bounds";
+  } else {
+    s.passed = true;
+  }
+  return trial;
+}
+
 }  // namespace
 
 SelectionResult select_effects(const SelectionProblem& problem, const Criteria& criteria,
                                const std::function<void(double)>& progress) {
   SelectionResult result;
   std::vector<std::string> effects;
-  SeparableModel current_model = problem.build(effects);
-  SeparableFit current = fit_separable(problem.y, current_model);
-  result.baseline = current;
-  std::vector<double> current_fold_sse = fold_sse(problem, current_model, current);
+  Scored current;
+  {
+    SeparableModel model = problem.build(effects);
+    SeparableFit fit = fit_separable(problem.y, model);
+    current = score(problem, std::move(model), std::move(fit));
+  }
+  result.baseline = current.fit;
+  result.baseline_noise = current.noise;
+  const std::vector<std::vector<bool>> scored = scored_rows(problem, current.model, current.fit.theta);
   const std::size_t n = static_cast<std::size_t>(problem.y.size());
-  const double total_steps = static_cast<double>(problem.candidates.size() * 2);
+  const double total_steps = static_cast<double>(problem.candidates.size() * 2 + problem.probes.size());
   double steps = 0.0;
+  const auto step = [&] {
+    if (progress) progress(std::min(0.99, ++steps / total_steps));
+  };
 
   for (int round = 1; round <= static_cast<int>(problem.candidates.size()); ++round) {
     std::vector<Trial> passed;
     for (const auto& effect : problem.candidates) {
       if (std::find(effects.begin(), effects.end(), effect) != effects.end()) continue;
-      if (progress) progress(std::min(0.99, ++steps / total_steps));
-      Trial trial;
-      trial.effect = effect;
-      std::vector<std::string> with = effects;
-      with.push_back(effect);
-      SeparableModel model = problem.build(with);
-      if (!current.theta.empty()) {
-        // The effects already in keep their fitted theta as the start; only
-        // the new effect's theta is searched on its grid (then LM refines all).
-        std::set<std::vector<double>> starts;
-        for (const auto& g : model.theta_grid) {
-          std::vector<double> start = current.theta;
-          start.insert(start.end(), g.begin() + static_cast<std::ptrdiff_t>(current.theta.size()), g.end());
-          starts.insert(std::move(start));
-        }
-        model.theta_grid.assign(starts.begin(), starts.end());
-      }
-      trial.fit = fit_separable(problem.y, model);
-      CandidateScore& s = trial.score;
-      s.round = round;
-      s.effect = effect;
-
-      const double rho =
-          problem.autocorrelated ? lag1_autocorrelation(as_span(trial.fit.residual)) : 0.0;
-      const double n_eff = effective_sample_size(n, rho);
-      const double dk = parameter_count(trial.fit) - parameter_count(current);
-      s.delta_bic = n_eff * std::log(std::max(current.sse, 1e-300) / std::max(trial.fit.sse, 1e-300)) -
-                    dk * std::log(n_eff);
-
-      const double dof = std::max(1.0, static_cast<double>(n) - parameter_count(trial.fit));
-      const double inflation = (1.0 + rho) / (1.0 - rho);
-      const Eigen::MatrixXd covariance =
-          trial.fit.covariance_unscaled * (trial.fit.sse / dof * inflation);
-      trial.readout = problem.readout(effect, with, trial.fit, covariance);
-      s.t_ratio = trial.readout.t_ratio;
-      s.in_bounds = trial.readout.in_bounds && !trial.fit.theta_at_bound;
-
-      trial.fold_sse_after = fold_sse(problem, model, trial.fit);
-      double before = 0.0;
-      double after = 0.0;
-      for (std::size_t f = 0; f < trial.fold_sse_after.size(); ++f) {
-        before += current_fold_sse[f];
-        after += trial.fold_sse_after[f];
-        if (trial.fold_sse_after[f] < current_fold_sse[f]) ++s.folds_improved;
-      }
-      s.cv_gain = before > 0.0 ? (before - after) / before : 0.0;
-      trial.added_signal = trial.fit.prediction - current.prediction;
-
-      if (s.delta_bic < criteria.min_delta_bic) {
-        s.reason = "delta BIC below threshold";
-      } else if (s.cv_gain < criteria.min_cv_gain ||
-                 s.folds_improved < std::min(criteria.min_folds_improved, problem.folds)) {
-        s.reason = "held-out folds do not improve";
-      } else if (s.t_ratio < criteria.min_t_ratio) {
-        s.reason = "confidence interval includes zero";
-      } else if (!s.in_bounds) {
-        s.reason = "parameters outside physical bounds";
-      } else {
-        s.passed = true;
-      }
-      result.tried.push_back(s);
-      if (s.passed) passed.push_back(std::move(trial));
+      step();
+      Trial trial = try_candidate(problem, criteria, current, scored, effects, effect, round, false);
+      result.tried.push_back(trial.score);
+      if (trial.score.passed) passed.push_back(std::move(trial));
     }
     if (passed.empty()) break;
     std::sort(passed.begin(), passed.end(), [](const Trial& a, const Trial& b) {
       return a.score.delta_bic > b.score.delta_bic;
     });
-    const Trial& best = passed.front();
+    // The passing candidates compared with one another under one noise model
+    // (that of the strongest): each was tested with its own wander refitted,
+    // which would make their likelihoods and held-out errors incommensurate.
+    std::vector<Standing> standings;
+    {
+      const WanderNoise* reference = is_series(problem) ? &passed.front().scored.noise : nullptr;
+      const Scored base = reference ? score(problem, current.model, current.fit, reference) : current;
+      for (const Trial& t : passed) {
+        Standing r{&t, t.score.delta_bic, t.after};
+        if (reference) {
+          const Scored common = score(problem, t.scored.model, t.scored.fit, reference);
+          const double dk = std::max(1.0, parameter_count(common.fit) - parameter_count(base.fit));
+          r.delta_bic = 2.0 * (common.log_likelihood - base.log_likelihood) / common.lrv_factor -
+                        dk * std::log(static_cast<double>(n) / common.lrv_factor);
+          r.held = held_out(problem, t.scored.model, t.scored.fit.theta, reference, scored);
+        }
+        standings.push_back(std::move(r));
+      }
+      std::stable_sort(standings.begin(), standings.end(),
+                       [](const Standing& a, const Standing& b) { return a.delta_bic > b.delta_bic; });
+    }
+    const Trial& best = *standings.front().trial;
     std::vector<std::string> tied{best.effect};
-    for (std::size_t i = 1; i < passed.size(); ++i) {
-      const bool close_bic =
-          best.score.delta_bic - passed[i].score.delta_bic < criteria.ambiguous_delta_bic;
-      const bool alike = std::fabs(correlation(best.added_signal, passed[i].added_signal)) >
-                         criteria.max_signal_correlation;
-      if (close_bic || alike) tied.push_back(passed[i].effect);
+    for (std::size_t i = 1; i < standings.size(); ++i) {
+      const Trial& other = *standings[i].trial;
+      const bool tie =
+          standings.front().delta_bic - standings[i].delta_bic < criteria.ambiguous_delta_bic ||
+          std::fabs(correlation(best.added_signal, other.added_signal)) > criteria.max_signal_correlation ||
+          in_group(problem, best.effect, other.effect) ||
+          held_out_tie(standings.front().held.unit_sse, standings[i].held.unit_sse, criteria.ambiguous_heldout_z);
+      if (tie) tied.push_back(other.effect);
     }
     AddedEffect added;
     added.effect = best.effect;
     added.params = best.readout.params;
     added.delta_bic = best.score.delta_bic;
-    added.rms_after = std::sqrt(best.fit.sse / static_cast<double>(n));
-    added.fold_rms_before = fold_rms(problem, current_fold_sse);
-    added.fold_rms_after = fold_rms(problem, best.fold_sse_after);
+    added.rms_after = std::sqrt(best.scored.fit.sse / static_cast<double>(n));
+    added.fold_rms_before = fold_rms(best.before);
+    added.fold_rms_after = fold_rms(best.after);
+    result.added.push_back(std::move(added));
+    current = best.scored;
     if (tied.size() > 1) {
       std::sort(tied.begin(), tied.end(), [&](const std::string& a, const std::string& b) {
         const auto pa = std::find(problem.candidates.begin(), problem.candidates.end(), a);
@@ -223,27 +520,56 @@ SelectionResult select_effects(const SelectionProblem& problem, const Criteria& 
         return pa < pb;
       });
       result.ambiguous = tied;
-      // The best of the tied candidates still shows how far the gap closes.
-      result.added.push_back(std::move(added));
-      current = best.fit;
-      break;
+      break;  // the best of the tied candidates still shows how far the gap closes
     }
     effects.push_back(best.effect);
-    result.added.push_back(std::move(added));
-    current = best.fit;
-    current_model = problem.build(effects);
-    current_fold_sse = best.fold_sse_after;
+  }
+
+  if (result.ambiguous.empty()) {
+    for (const auto& probe : problem.probes) {
+      step();
+      Trial trial = try_candidate(problem, criteria, current, scored, effects, probe, 0, true);
+      result.tried.push_back(trial.score);
+      if (trial.score.passed) result.unexplained.push_back(probe);
+    }
   }
   if (progress) progress(1.0);
 
   if (!result.ambiguous.empty()) {
     // Effects already found stay listed in `added`; the verdict names the tie.
     result.verdict = "ambiguous:" + join(result.ambiguous);
+  } else if (!result.unexplained.empty()) {
+    result.verdict = effects.empty() ? "unexplained" : join(effects) + "+unexplained";
   } else {
     result.verdict = effects.empty() ? "none" : join(effects);
   }
-  result.final_fit = current;
+  result.final_fit = current.fit;
+  result.final_noise = current.noise;
   return result;
+}
+
+std::string verdict_statement(const SelectionResult& r) {
+  const auto listed = [](const std::vector<std::string>& names, const char* conjunction) {
+    std::string out;
+    for (std::size_t i = 0; i < names.size(); ++i) {
+      if (i > 0) out += i + 1 == names.size() ? conjunction : ", ";
+      out += names[i];
+    }
+    return out;
+  };
+  if (!r.ambiguous.empty()) {
+    return "consistent with either " + listed(r.ambiguous, " or ") + "; the record cannot tell them apart";
+  }
+  std::vector<std::string> found;
+  for (const auto& a : r.added) found.push_back(a.effect);
+  if (!r.unexplained.empty()) {
+    const std::string structure = "structure remains that none of the library's effects explains (probe: " +
+                                  listed(r.unexplained, " and ") + ")";
+    return found.empty() ? "none of the library's effects explains the residual: " + structure
+                         : "consistent with " + listed(found, " and ") + ", but " + structure;
+  }
+  if (found.empty()) return "no structure beyond the baseline and its noise";
+  return "consistent with " + listed(found, " and ");
 }
 
 }  // namespace gyrotc::identify

@@ -6,13 +6,8 @@
 #include <vector>
 
 namespace gyrotc::identify {
-namespace {
 
-// A^T A from the non-zeros of each row: the spline columns of a design are
-// zero but for 4 per row, so this costs O(rows * nnz^2) instead of
-// O(rows * cols^2), the difference between seconds and minutes on a day's
-// record (and in Debug builds).
-Eigen::MatrixXd normal_matrix(const Eigen::MatrixXd& design) {
+Eigen::MatrixXd gram_matrix(const Eigen::MatrixXd& design) {
   const Eigen::Index n = design.rows();
   const Eigen::Index p = design.cols();
   const double* data = design.data();  // column-major
@@ -43,11 +38,13 @@ Eigen::MatrixXd normal_matrix(const Eigen::MatrixXd& design) {
   return out;
 }
 
+namespace {
+
 // (A^T A)^-1 with columns scaled to unit norm and a tiny ridge, so nearly
 // collinear columns (an empty spline interval) stay solvable.
 Eigen::MatrixXd scaled_inverse_normal(const Eigen::MatrixXd& design, Eigen::VectorXd& scale) {
   const Eigen::Index p = design.cols();
-  Eigen::MatrixXd normal = normal_matrix(design);
+  Eigen::MatrixXd normal = gram_matrix(design);
   scale.resize(p);
   for (Eigen::Index j = 0; j < p; ++j) {
     const double norm = std::sqrt(normal(j, j));
@@ -174,9 +171,22 @@ SeparableFit fit_separable(const Eigen::VectorXd& y, const SeparableModel& model
   fit.residual = y - fit.prediction;
   fit.sse = final_profile.sse;
 
+  fit.covariance_unscaled = inverse_normal(model_jacobian(model, theta, fit.beta, &fit.theta_at_bound));
+  return fit;
+}
+
+Eigen::MatrixXd model_jacobian(const SeparableModel& model, const std::vector<double>& theta,
+                               const Eigen::VectorXd& beta, bool* at_bound) {
+  Eigen::MatrixXd design;
+  Eigen::VectorXd offset;
+  model.evaluate(theta, design, offset);
   const Eigen::Index p = design.cols();
-  Eigen::MatrixXd jac(y.size(), p + static_cast<Eigen::Index>(k));
+  const std::size_t k = theta.size();
+  Eigen::VectorXd prediction = offset;
+  if (p > 0) prediction += design * beta;
+  Eigen::MatrixXd jac(design.rows(), p + static_cast<Eigen::Index>(k));
   if (p > 0) jac.leftCols(p) = design;
+  if (at_bound) *at_bound = false;
   for (std::size_t j = 0; j < k; ++j) {
     const double range = model.theta_upper[j] - model.theta_lower[j];
     const double h = 1e-6 * range;
@@ -187,17 +197,20 @@ SeparableFit fit_separable(const Eigen::VectorXd& y, const SeparableModel& model
     Eigen::VectorXd offset_h;
     model.evaluate(stepped, design_h, offset_h);
     Eigen::VectorXd moved = offset_h;
-    if (p > 0) moved += design_h * fit.beta;
-    jac.col(p + static_cast<Eigen::Index>(j)) = (moved - fit.prediction) / dh;
-    if (theta[j] - model.theta_lower[j] < 1e-4 * range ||
-        model.theta_upper[j] - theta[j] < 1e-4 * range) {
-      fit.theta_at_bound = true;
+    if (p > 0) moved += design_h * beta;
+    jac.col(p + static_cast<Eigen::Index>(j)) = (moved - prediction) / dh;
+    if (at_bound && (theta[j] - model.theta_lower[j] < 1e-4 * range ||
+                     model.theta_upper[j] - theta[j] < 1e-4 * range)) {
+      *at_bound = true;
     }
   }
+  return jac;
+}
+
+Eigen::MatrixXd inverse_normal(const Eigen::MatrixXd& jacobian) {
   Eigen::VectorXd scale;
-  const Eigen::MatrixXd inverse = scaled_inverse_normal(jac, scale);
-  fit.covariance_unscaled = scale.asDiagonal() * inverse * scale.asDiagonal();
-  return fit;
+  const Eigen::MatrixXd inverse = scaled_inverse_normal(jacobian, scale);
+  return scale.asDiagonal() * inverse * scale.asDiagonal();
 }
 
 Eigen::VectorXd predict_with_theta(const Eigen::VectorXd& y, const SeparableModel& model,

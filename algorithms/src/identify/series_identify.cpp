@@ -4,9 +4,11 @@
 #include <cmath>
 #include <cstdio>
 #include <stdexcept>
+#include <utility>
 
 #include "gyrotc/algorithms/identify/residual_stats.hpp"
 #include "gyrotc/algorithms/identify/selection.hpp"
+#include "gyrotc/algorithms/model/effects.hpp"
 
 namespace gyrotc::identify {
 namespace {
@@ -15,68 +17,168 @@ constexpr double kLn10 = 2.302585092994046;
 constexpr double kMinLagS = 20.0;
 constexpr double kMinRampR0 = 1e-3;  // C/s
 
-// The record averaged into equal bins, with the derived signals.
+// The record averaged into equal time bins, with the derived signals. Bins
+// without samples (inside gaps) hold values interpolated between their
+// neighbours so the lag filters run on a uniform grid; `rows` lists the bins
+// that are fitted (they hold samples and are not settling after a gap).
 struct Bins {
-  Eigen::VectorXd time_s, temp_c, rate_c_per_s, y, ambient_c, tec_a, tec_a2;
-  double step_s = 1.0;  // bin spacing
+  Eigen::VectorXd time_s, temp_c, rate_c_per_s, y, ambient_c, tec_a, tec_a2, count;
+  double step_s = 1.0;  // bin width
+  std::vector<Eigen::Index> rows;
+  int gaps = 0;
+  double gap_total_s = 0.0;
 };
 
-// Centred moving average of half-width h samples (shorter at the ends), by
-// cumulative sums: O(n).
-std::vector<double> centred_mean(const std::vector<double>& v, std::size_t h) {
+// Indices where the time step exceeds gap_s: each starts a new segment.
+std::vector<std::size_t> segment_starts(const std::vector<double>& t, double gap_s) {
+  std::vector<std::size_t> starts{0};
+  for (std::size_t i = 1; i < t.size(); ++i) {
+    if (t[i] - t[i - 1] > gap_s) starts.push_back(i);
+  }
+  return starts;
+}
+
+// Centred moving average over +/- half_s in time within each segment (shorter
+// at its ends), by cumulative sums and two pointers; the window's first and
+// last samples are returned for the derivative.
+struct Window {
+  std::vector<double> mean;
+  std::vector<std::size_t> lo, hi;
+};
+
+Window centred_mean(const std::vector<double>& t, const std::vector<double>& v,
+                    const std::vector<std::size_t>& starts, double half_s) {
   const std::size_t n = v.size();
   std::vector<double> cum(n + 1, 0.0);
   for (std::size_t i = 0; i < n; ++i) cum[i + 1] = cum[i] + v[i];
-  std::vector<double> out(n);
-  for (std::size_t i = 0; i < n; ++i) {
-    const std::size_t lo = i >= h ? i - h : 0;
-    const std::size_t hi = std::min(n - 1, i + h);
-    out[i] = (cum[hi + 1] - cum[lo]) / static_cast<double>(hi - lo + 1);
+  Window w;
+  w.mean.resize(n);
+  w.lo.resize(n);
+  w.hi.resize(n);
+  for (std::size_t s = 0; s < starts.size(); ++s) {
+    const std::size_t first = starts[s];
+    const std::size_t last = s + 1 < starts.size() ? starts[s + 1] - 1 : n - 1;
+    std::size_t lo = first;
+    std::size_t hi = first;
+    for (std::size_t i = first; i <= last; ++i) {
+      while (t[i] - t[lo] > half_s) ++lo;
+      while (hi < last && t[hi + 1] - t[i] <= half_s) ++hi;
+      w.mean[i] = (cum[hi + 1] - cum[lo]) / static_cast<double>(hi - lo + 1);
+      w.lo[i] = lo;
+      w.hi[i] = hi;
+    }
   }
-  return out;
+  return w;
+}
+
+double median_step(const std::vector<double>& t) {
+  std::vector<double> d(t.size() - 1);
+  for (std::size_t i = 1; i < t.size(); ++i) d[i - 1] = t[i] - t[i - 1];
+  std::nth_element(d.begin(), d.begin() + static_cast<std::ptrdiff_t>(d.size() / 2), d.end());
+  return d[d.size() / 2];
+}
+
+// Fills bins without samples by linear interpolation between the nearest
+// bins with samples (constant beyond the ends).
+void interpolate_empty(Eigen::VectorXd& v, const Eigen::VectorXd& count) {
+  const Eigen::Index n = v.size();
+  Eigen::Index prev = -1;
+  for (Eigen::Index i = 0; i <= n; ++i) {
+    if (i < n && count(i) == 0.0) continue;
+    for (Eigen::Index j = prev + 1; j < i; ++j) {
+      if (prev < 0) v(j) = v(i);
+      else if (i == n) v(j) = v(prev);
+      else v(j) = v(prev) + (v(i) - v(prev)) * static_cast<double>(j - prev) / static_cast<double>(i - prev);
+    }
+    prev = i;
+  }
 }
 
 Bins make_bins(const SeriesRecord& r, const std::vector<double>& y, const SeriesOptions& o) {
   const std::size_t n = r.time_s.size();
-  const double dt = (r.time_s.back() - r.time_s.front()) / static_cast<double>(n - 1);
-  const auto h = static_cast<std::size_t>(std::max(1.0, std::round(0.5 * o.smooth_s / dt)));
-  const std::vector<double> smooth = centred_mean(r.sensor_c, h);
-  std::vector<double> rate(n);
+  const double t0 = r.time_s.front();
+  const double span = r.time_s.back() - t0;
+  const std::vector<std::size_t> starts = segment_starts(r.time_s, o.gap_s);
+  const Window smooth = centred_mean(r.time_s, r.sensor_c, starts, 0.5 * o.smooth_s);
+  std::vector<double> rate(n, 0.0);
   for (std::size_t i = 0; i < n; ++i) {
-    const std::size_t lo = i >= h ? i - h : 0;
-    const std::size_t hi = std::min(n - 1, i + h);
-    rate[i] = (smooth[hi] - smooth[lo]) / (r.time_s[hi] - r.time_s[lo]);
+    const std::size_t lo = smooth.lo[i];
+    const std::size_t hi = smooth.hi[i];
+    if (hi > lo) rate[i] = (smooth.mean[hi] - smooth.mean[lo]) / (r.time_s[hi] - r.time_s[lo]);
   }
-  const std::size_t width = (n + o.max_bins - 1) / o.max_bins;
-  const std::size_t count = (n + width - 1) / width;
   Bins b;
-  for (auto* v : {&b.time_s, &b.temp_c, &b.rate_c_per_s, &b.y, &b.ambient_c, &b.tec_a, &b.tec_a2}) {
-    *v = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(count));
+  b.step_s = std::max(median_step(r.time_s), span / static_cast<double>(o.max_bins));
+  const auto count = static_cast<Eigen::Index>(std::floor(span / b.step_s)) + 1;
+  for (auto* v : {&b.time_s, &b.temp_c, &b.rate_c_per_s, &b.y, &b.ambient_c, &b.tec_a, &b.tec_a2, &b.count}) {
+    *v = Eigen::VectorXd::Zero(count);
   }
   const bool has_tec = !r.tec_a.empty();
-  for (std::size_t k = 0; k < count; ++k) {
-    const std::size_t lo = k * width;
-    const std::size_t hi = std::min(n, lo + width);
-    const auto e = static_cast<Eigen::Index>(k);
-    for (std::size_t i = lo; i < hi; ++i) {
-      b.time_s(e) += r.time_s[i];
-      b.temp_c(e) += smooth[i];
-      b.rate_c_per_s(e) += rate[i];
-      b.y(e) += y[i];
-      b.ambient_c(e) += r.ambient_c[i];
-      if (has_tec) {
-        b.tec_a(e) += r.tec_a[i];
-        b.tec_a2(e) += r.tec_a[i] * r.tec_a[i];
-      }
+  for (std::size_t i = 0; i < n; ++i) {
+    const auto e = std::min(count - 1, static_cast<Eigen::Index>((r.time_s[i] - t0) / b.step_s));
+    b.count(e) += 1.0;
+    b.time_s(e) += r.time_s[i] - t0;
+    b.temp_c(e) += smooth.mean[i];
+    b.rate_c_per_s(e) += rate[i];
+    b.y(e) += y[i];
+    b.ambient_c(e) += r.ambient_c[i];
+    if (has_tec) {
+      b.tec_a(e) += r.tec_a[i];
+      b.tec_a2(e) += r.tec_a[i] * r.tec_a[i];
     }
-    const double m = static_cast<double>(hi - lo);
+  }
+  for (Eigen::Index e = 0; e < count; ++e) {
+    const double m = b.count(e);
+    if (m == 0.0) {
+      b.time_s(e) = (static_cast<double>(e) + 0.5) * b.step_s;
+      continue;
+    }
     for (auto* v : {&b.time_s, &b.temp_c, &b.rate_c_per_s, &b.y, &b.ambient_c, &b.tec_a, &b.tec_a2}) {
       (*v)(e) /= m;
     }
   }
-  b.time_s.array() -= r.time_s.front();
-  b.step_s = dt * static_cast<double>(width);
+  for (auto* v : {&b.temp_c, &b.ambient_c, &b.tec_a, &b.tec_a2}) interpolate_empty(*v, b.count);
+  // Across a gap the temperature is interpolated: its slope is the rate.
+  for (Eigen::Index e = 1; e + 1 < count; ++e) {
+    if (b.count(e) == 0.0) b.rate_c_per_s(e) = (b.temp_c(e + 1) - b.temp_c(e - 1)) / (2.0 * b.step_s);
+  }
+  // Fitted bins: with samples, and not within settle_s after a gap.
+  std::vector<double> settle_until;
+  for (std::size_t s = 1; s < starts.size(); ++s) {
+    ++b.gaps;
+    b.gap_total_s += r.time_s[starts[s]] - r.time_s[starts[s] - 1];
+    settle_until.push_back(r.time_s[starts[s]] - t0 + o.settle_s);
+  }
+  std::size_t next_gap = 0;
+  for (Eigen::Index e = 0; e < count; ++e) {
+    if (b.count(e) == 0.0) continue;
+    const double t = b.time_s(e);
+    while (next_gap < settle_until.size() && settle_until[next_gap] < t) ++next_gap;
+    const bool settling =
+        next_gap < settle_until.size() && t >= settle_until[next_gap] - o.settle_s && t <= settle_until[next_gap];
+    if (!settling) b.rows.push_back(e);
+  }
   return b;
+}
+
+Eigen::VectorXd gather(const Eigen::VectorXd& v, const std::vector<Eigen::Index>& rows) {
+  Eigen::VectorXd out(static_cast<Eigen::Index>(rows.size()));
+  for (std::size_t r = 0; r < rows.size(); ++r) out(static_cast<Eigen::Index>(r)) = v(rows[r]);
+  return out;
+}
+
+// The fitted bins alone (what the residuals are aligned with).
+Bins fitted_view(const Bins& grid) {
+  Bins f;
+  for (auto [to, from] : {std::pair{&f.time_s, &grid.time_s}, {&f.temp_c, &grid.temp_c},
+                          {&f.rate_c_per_s, &grid.rate_c_per_s}, {&f.y, &grid.y}, {&f.ambient_c, &grid.ambient_c},
+                          {&f.tec_a, &grid.tec_a}, {&f.tec_a2, &grid.tec_a2}, {&f.count, &grid.count}}) {
+    *to = gather(*from, grid.rows);
+  }
+  f.step_s = grid.step_s;
+  f.gaps = grid.gaps;
+  f.gap_total_s = grid.gap_total_s;
+  for (std::size_t r = 0; r < grid.rows.size(); ++r) f.rows.push_back(static_cast<Eigen::Index>(r));
+  return f;
 }
 
 // Unit-gain first-order lag of u with time constant tau, exact for u linear
@@ -117,19 +219,46 @@ std::vector<double> log_grid(double lo, double hi, int count) {
 }
 
 
+double se(const Eigen::MatrixXd& cov, Eigen::Index i) { return std::sqrt(std::max(0.0, cov(i, i))); }
+
 bool has_theta(const std::string& e) {
   return e == "thermal_lag" || e == "ramp_hysteresis" || e == "warm_up";
 }
-bool has_column(const std::string& e) { return e != "thermal_lag"; }
-
-double se(const Eigen::MatrixXd& cov, Eigen::Index i) { return std::sqrt(std::max(0.0, cov(i, i))); }
 
 struct GyroSetup {
   Bins bins;
-  double lo = 0.0, hi = 1.0;
+  double lo = 0.0, hi = 1.0;  // temperature range of the fitted bins
   int intervals = 4;
   double duration_s = 0.0;
+  double rate_lo = 0.0, rate_hi = 1.0;  // dT/dt range of the fitted bins
+  int time_intervals = 4;
+  // Monotone records: the trajectory effects cannot be identified, but they
+  // still leave structure where dT/dt jumps (a step starting from a hold);
+  // the baseline then carries a spline in dT/dt so that structure is not
+  // taken for a drift or a warm-up.
+  bool rate_nuisance = false;
 };
+
+// Columns an effect or probe adds to the design (thermal_lag acts through
+// the bias curve's argument instead). Probes are splines without their first
+// basis function, which the bias curve's constant already spans.
+constexpr int kRateProbeIntervals = 4;
+int columns_of(const GyroSetup& s, const std::string& e) {
+  if (e == "thermal_lag") return 0;
+  if (e == "time_structure") return s.time_intervals + 2;
+  if (e == "rate_structure") return kRateProbeIntervals + 2;
+  if (e == "tec_structure") return 2;
+  return 1;
+}
+
+// Uniform cubic B-spline of x over [lo, hi] without its first basis
+// function, into `cols` columns from `first`.
+void probe_spline(const Eigen::VectorXd& x, double lo, double hi, int intervals, Eigen::MatrixXd& design,
+                  Eigen::Index first) {
+  Eigen::MatrixXd basis = Eigen::MatrixXd::Zero(x.size(), intervals + 3);
+  spline_columns(x, lo, std::max(hi, lo + 1e-9), intervals, basis, 0);
+  design.middleCols(first, intervals + 2) = basis.rightCols(intervals + 2);
+}
 
 SeparableModel gyro_model(const GyroSetup& s, const std::vector<std::string>& effects) {
   SeparableModel m;
@@ -146,7 +275,7 @@ SeparableModel gyro_model(const GyroSetup& s, const std::vector<std::string>& ef
       // rate_sensitivity in disguise.
       // A narrower tanh than the noise of the dT/dt estimate on holds
       // (0.0625 C steps over the smoothing window) is a coin flip.
-      const double hi = std::log10(std::max(2.0 * kMinRampR0, 0.5 * s.bins.rate_c_per_s.cwiseAbs().maxCoeff()));
+      const double hi = std::log10(std::max(2.0 * kMinRampR0, 0.5 * std::max(-s.rate_lo, s.rate_hi)));
       m.theta_lower.push_back(std::log10(kMinRampR0));
       m.theta_upper.push_back(hi);
       axes.push_back(log_grid(std::log10(kMinRampR0), hi, 6));
@@ -161,27 +290,41 @@ SeparableModel gyro_model(const GyroSetup& s, const std::vector<std::string>& ef
   m.evaluate = [&s, effects](const std::vector<double>& theta, Eigen::MatrixXd& design,
                              Eigen::VectorXd& offset) {
     const Bins& b = s.bins;
-    const Eigen::Index n = b.y.size();
-    Eigen::Index cols = s.intervals + 3;
-    for (const auto& e : effects) cols += has_column(e) ? 1 : 0;
+    const auto n = static_cast<Eigen::Index>(b.rows.size());
+    const Eigen::Index base_cols = s.intervals + 3 + (s.rate_nuisance ? kRateProbeIntervals + 2 : 0);
+    Eigen::Index cols = base_cols;
+    for (const auto& e : effects) cols += columns_of(s, e);
     design = Eigen::MatrixXd::Zero(n, cols);
     offset = Eigen::VectorXd::Zero(n);
-    Eigen::VectorXd temp = b.temp_c;
+    Eigen::VectorXd temp = gather(b.temp_c, b.rows);
+    const Eigen::VectorXd rate = gather(b.rate_c_per_s, b.rows);
+    const Eigen::VectorXd time = gather(b.time_s, b.rows);
     std::size_t t = 0;
-    Eigen::Index c = s.intervals + 3;
+    Eigen::Index c = base_cols;
+    if (s.rate_nuisance) probe_spline(rate, s.rate_lo, s.rate_hi, kRateProbeIntervals, design, s.intervals + 3);
     for (const auto& e : effects) {
       const double p = has_theta(e) ? std::pow(10.0, theta[t++]) : 0.0;
       if (e == "thermal_lag") {
-        temp = first_order_lag(b.temp_c, b.step_s, p);
+        temp = gather(first_order_lag(b.temp_c, b.step_s, p), b.rows);
       } else if (e == "rate_sensitivity") {
-        design.col(c++) = b.rate_c_per_s;
+        design.col(c) = rate;
       } else if (e == "ramp_hysteresis") {
-        design.col(c++) = (b.rate_c_per_s.array() / p).tanh();
+        design.col(c) = (rate.array() / p).tanh();
+      } else if (e == "ambient_sensitivity") {
+        design.col(c) = gather(b.ambient_c, b.rows).array() - model::kAmbientReferenceC;
       } else if (e == "warm_up") {
-        design.col(c++) = (-b.time_s.array() / p).exp();
+        design.col(c) = (-time.array() / p).exp();
       } else if (e == "linear_drift") {
-        design.col(c++) = b.time_s / 3600.0;
+        design.col(c) = time / 3600.0;
+      } else if (e == "time_structure") {
+        probe_spline(time, 0.0, s.duration_s, s.time_intervals, design, c);
+      } else if (e == "rate_structure") {
+        probe_spline(rate, s.rate_lo, s.rate_hi, kRateProbeIntervals, design, c);
+      } else if (e == "tec_structure") {
+        design.col(c) = gather(b.tec_a, b.rows);
+        design.col(c + 1) = gather(b.tec_a2, b.rows);
       }
+      c += columns_of(s, e);
     }
     spline_columns(temp, s.lo, s.hi, s.intervals, design, 0);
   };
@@ -192,11 +335,11 @@ EffectReadout gyro_readout(const GyroSetup& s, const std::string& effect,
                            const std::vector<std::string>& effects, const SeparableFit& fit,
                            const Eigen::MatrixXd& cov) {
   const Eigen::Index n_beta = fit.beta.size();
-  Eigen::Index col = s.intervals + 3;
+  Eigen::Index col = s.intervals + 3 + (s.rate_nuisance ? kRateProbeIntervals + 2 : 0);
   Eigen::Index th = n_beta;
   for (const auto& e : effects) {
     if (e == effect) break;
-    col += has_column(e) ? 1 : 0;
+    col += columns_of(s, e);
     th += has_theta(e) ? 1 : 0;
   }
   EffectReadout out;
@@ -205,6 +348,7 @@ EffectReadout gyro_readout(const GyroSetup& s, const std::string& effect,
     const double e = se(cov, i);
     return e > 0 ? std::fabs(value) / e : 1e9;
   };
+  out.amplitude_index = effect == "thermal_lag" ? th : col;
   if (effect == "thermal_lag") {
     const double tau = std::pow(10.0, fit.theta[static_cast<std::size_t>(th - n_beta)]);
     const double se_log = se(cov, th);
@@ -222,6 +366,12 @@ EffectReadout gyro_readout(const GyroSetup& s, const std::string& effect,
     const double tau = std::pow(10.0, fit.theta[static_cast<std::size_t>(th - n_beta)]);
     out.params = {{"a_mv", fit.beta(col), se(cov, col)}, {"tau_s", tau, tau * kLn10 * se(cov, th)}};
     out.t_ratio = ratio(col, fit.beta(col));
+  } else if (effect == "ambient_sensitivity") {
+    out.params = {{"k_mv_per_c", fit.beta(col), se(cov, col)}, {"ref_c", model::kAmbientReferenceC, 0.0}};
+    out.t_ratio = ratio(col, fit.beta(col));
+    // Larger than the bias's own temperature slope (~1 mV/C, seed Table 2)
+    // is not a plausible coupling of the readout to its surroundings.
+    out.in_bounds = std::fabs(fit.beta(col)) <= 5.0;
   } else if (effect == "linear_drift") {
     out.params = {{"d_mv_per_h", fit.beta(col), se(cov, col)}};
     out.t_ratio = ratio(col, fit.beta(col));
@@ -236,7 +386,7 @@ EffectReadout gyro_readout(const GyroSetup& s, const std::string& effect,
 int choose_intervals(const GyroSetup& s) {
   constexpr double kIntervalC = 2.0;
   const auto by_range = static_cast<int>(std::ceil((s.hi - s.lo) / kIntervalC));
-  const auto by_bins = static_cast<int>(s.bins.y.size() / 10) - 3;
+  const auto by_bins = static_cast<int>(s.bins.rows.size() / 10) - 3;
   return std::max(2, std::min({by_range, by_bins, 64}));
 }
 
@@ -275,13 +425,13 @@ SeparableModel thermal_model(const ThermalSetup& s, const std::vector<std::strin
                            Eigen::VectorXd& offset) {
     const Bins& b = s.bins;
     const double tau = std::pow(10.0, theta[0]);
-    const Eigen::Index n = b.y.size();
+    const auto n = static_cast<Eigen::Index>(b.rows.size());
     design.resize(n, joule ? 5 : 4);
-    design.col(0) = first_order_lag(b.ambient_c, b.step_s, tau);
-    design.col(1) = first_order_lag(b.tec_a, b.step_s, tau);
+    design.col(0) = gather(first_order_lag(b.ambient_c, b.step_s, tau), b.rows);
+    design.col(1) = gather(first_order_lag(b.tec_a, b.step_s, tau), b.rows);
     design.col(2).setOnes();
-    design.col(3) = (-b.time_s.array() / tau).exp();
-    if (joule) design.col(4) = first_order_lag(b.tec_a2, b.step_s, tau);
+    design.col(3) = (-gather(b.time_s, b.rows).array() / tau).exp();
+    if (joule) design.col(4) = gather(first_order_lag(b.tec_a2, b.step_s, tau), b.rows);
     offset = Eigen::VectorXd::Zero(n);
   };
   return m;
@@ -344,7 +494,7 @@ std::vector<SignalCorrelation> correlations_of(const Bins& b, const Eigen::Vecto
   return out;
 }
 
-void check_record(const SeriesRecord& r, SeriesTarget target) {
+void check_record(const SeriesRecord& r, SeriesTarget target, const SeriesOptions& o) {
   const std::size_t n = r.time_s.size();
   if (n < 200) throw std::invalid_argument("a time series needs at least 200 rows");
   if (r.sensor_c.size() != n || r.ambient_c.size() != n ||
@@ -354,54 +504,135 @@ void check_record(const SeriesRecord& r, SeriesTarget target) {
   if (target == SeriesTarget::sensor_c && r.tec_a.size() != n) {
     throw std::invalid_argument("target sensor_c needs the tec_a column");
   }
+  if (!r.tec_a.empty() && r.tec_a.size() != n) throw std::invalid_argument("columns of unequal length");
+  char line[200];
+  for (const auto& [name, column] : {std::pair{"time_s", &r.time_s}, {"ambient_c", &r.ambient_c},
+                                     {"sensor_c", &r.sensor_c}, {"gyro_mv", &r.gyro_mv}, {"tec_a", &r.tec_a}}) {
+    for (std::size_t i = 0; i < column->size(); ++i) {
+      if (!std::isfinite((*column)[i])) {
+        std::snprintf(line, sizeof line, "%s is not a finite number in data row %zu", name, i + 1);
+        throw std::invalid_argument(line);
+      }
+    }
+  }
   for (std::size_t i = 1; i < n; ++i) {
     if (!(r.time_s[i] > r.time_s[i - 1])) throw std::invalid_argument("time_s is not increasing");
   }
+  const double step = median_step(r.time_s);
+  if (step > o.smooth_s / 3.0) {
+    std::snprintf(line, sizeof line,
+                  "sampled every %.4g s (median): too coarse for dT/dt, which needs at least 3 samples per "
+                  "%.4g s smoothing window",
+                  step, o.smooth_s);
+    throw std::invalid_argument(line);
+  }
+  double gaps_s = 0.0;
+  for (std::size_t i = 1; i < n; ++i) {
+    const double dt = r.time_s[i] - r.time_s[i - 1];
+    if (dt <= o.gap_s) continue;
+    gaps_s += dt;
+    if (target == SeriesTarget::sensor_c && dt > o.settle_s) {
+      std::snprintf(line, sizeof line,
+                    "gap of %.0f s after time_s %.6g: the casing model cannot carry its state across a gap longer "
+                    "than %.0f s; split the record there",
+                    dt, r.time_s[i - 1], o.settle_s);
+      throw std::invalid_argument(line);
+    }
+  }
+  const double span = r.time_s.back() - r.time_s.front();
+  if (gaps_s > 0.5 * span) {
+    std::snprintf(line, sizeof line, "gaps cover %.0f s of the %.0f s record: more than half is missing", gaps_s,
+                  span);
+    throw std::invalid_argument(line);
+  }
 }
+
+// Whether the casing follows the ambient as a first-order lag, so that
+// ambient - T is a multiple of dT/dt and ambient_sensitivity cannot be told
+// from rate_sensitivity (the bias curve absorbs the k * T part).
+constexpr double kConfoundedCorrelation = 0.98;
 
 }  // namespace
 
 Identification identify_series(const SeriesRecord& record, SeriesTarget target,
                                const SeriesOptions& options, const Criteria& criteria,
                                const std::function<void(double)>& progress) {
-  check_record(record, target);
+  check_record(record, target, options);
   const bool gyro = target == SeriesTarget::gyro_mv;
   constexpr int kMinCellsBothWays = 3;
-  std::string id_note;
+  constexpr std::size_t kMinFittedBins = 200;
+  std::vector<std::string> notes;
   SelectionProblem problem;
   GyroSetup gyro_setup;
   ThermalSetup thermal_setup;
-  const Bins bins = make_bins(record, gyro ? record.gyro_mv : record.sensor_c, options);
-  const std::size_t n = static_cast<std::size_t>(bins.y.size());
+  Bins grid = make_bins(record, gyro ? record.gyro_mv : record.sensor_c, options);
+  if (gyro && options.base_die_tau_s > 0.0) {
+    const Eigen::VectorXd die = first_order_lag(grid.temp_c, grid.step_s, options.base_die_tau_s);
+    grid.rate_c_per_s = (grid.temp_c - die) / options.base_die_tau_s;
+    grid.temp_c = die;
+  }
+  if (grid.rows.size() < kMinFittedBins) {
+    char line[160];
+    std::snprintf(line, sizeof line,
+                  "only %zu bins left to fit after the gaps and the %.0f s settling after each (at least %zu needed)",
+                  grid.rows.size(), options.settle_s, kMinFittedBins);
+    throw std::invalid_argument(line);
+  }
+  if (grid.gaps > 0) {
+    char line[200];
+    std::snprintf(line, sizeof line,
+                  "%d gap(s), %.0f s in all, bridged by interpolating the temperatures; the %.0f s after each are "
+                  "not fitted",
+                  grid.gaps, grid.gap_total_s, options.settle_s);
+    notes.emplace_back(line);
+  }
+  const Bins bins = fitted_view(grid);
+  const std::size_t n = bins.rows.size();
+  const double duration = record.time_s.back() - record.time_s.front();
   problem.y = bins.y;
   if (gyro) {
-    gyro_setup.bins = bins;
-    if (options.base_die_tau_s > 0.0) {
-      Bins& b = gyro_setup.bins;
-      const Eigen::VectorXd die = first_order_lag(b.temp_c, b.step_s, options.base_die_tau_s);
-      b.rate_c_per_s = (b.temp_c - die) / options.base_die_tau_s;
-      b.temp_c = die;
-    }
-    gyro_setup.lo = gyro_setup.bins.temp_c.minCoeff();
-    gyro_setup.hi = std::max(gyro_setup.bins.temp_c.maxCoeff(), gyro_setup.lo + 1e-3);
-    gyro_setup.duration_s = record.time_s.back() - record.time_s.front();
+    gyro_setup.bins = grid;
+    gyro_setup.lo = bins.temp_c.minCoeff();
+    gyro_setup.hi = std::max(bins.temp_c.maxCoeff(), gyro_setup.lo + 1e-3);
+    gyro_setup.rate_lo = bins.rate_c_per_s.minCoeff();
+    gyro_setup.rate_hi = bins.rate_c_per_s.maxCoeff();
+    gyro_setup.duration_s = duration;
+    gyro_setup.time_intervals = std::clamp(static_cast<int>(std::round(duration / 3600.0)), 4, 12);
     gyro_setup.intervals = choose_intervals(gyro_setup);
-    if (cells_crossed_both_ways(gyro_setup.bins) >= kMinCellsBothWays) {
-      problem.candidates = {"thermal_lag", "rate_sensitivity", "ramp_hysteresis"};
+    if (cells_crossed_both_ways(bins) >= kMinCellsBothWays) {
+      problem.candidates = {"thermal_lag", "rate_sensitivity", "ramp_hysteresis", "ambient_sensitivity"};
+      problem.probes.push_back("rate_structure");
+      const double r = std::fabs(pearson(bins.ambient_c - bins.temp_c, bins.rate_c_per_s));
+      if (r > kConfoundedCorrelation) {
+        problem.confounded.push_back({"rate_sensitivity", "ambient_sensitivity"});
+        char line[200];
+        std::snprintf(line, sizeof line,
+                      "rate_sensitivity and ambient_sensitivity cannot be told apart: the casing follows the "
+                      "ambient as a first-order lag (ambient - T correlates %.3f with dT/dt)",
+                      r);
+        notes.emplace_back(line);
+      }
     } else {
-      id_note = "thermal_lag, rate_sensitivity and ramp_hysteresis not tried: the record never "
-                "crosses the same temperatures heating and cooling, so a flexible bias curve "
-                "absorbs them";
+      gyro_setup.rate_nuisance = true;
+      notes.emplace_back(
+          "thermal_lag, rate_sensitivity, ramp_hysteresis and ambient_sensitivity not tried: the record never "
+          "crosses the same temperatures heating and cooling, so a flexible bias curve absorbs them (the "
+          "baseline carries a spline in dT/dt for what they leave where the rate jumps)");
     }
     problem.candidates.push_back("warm_up");
     problem.candidates.push_back("linear_drift");
+    problem.probes.insert(problem.probes.begin(), "time_structure");
+    if (!record.tec_a.empty()) {
+      const Eigen::VectorXd tec = bins.tec_a.array() - bins.tec_a.mean();
+      if (tec.norm() / std::sqrt(static_cast<double>(n)) > 0.01) problem.probes.push_back("tec_structure");
+    }
     problem.build = [&gyro_setup](const std::vector<std::string>& e) { return gyro_model(gyro_setup, e); };
     problem.readout = [&gyro_setup](const std::string& effect, const std::vector<std::string>& effects,
                                     const SeparableFit& fit, const Eigen::MatrixXd& cov) {
       return gyro_readout(gyro_setup, effect, effects, fit, cov);
     };
   } else {
-    thermal_setup.bins = bins;
+    thermal_setup.bins = grid;
     problem.candidates = {"tec_joule_heating"};
     problem.build = [&thermal_setup](const std::vector<std::string>& e) {
       return thermal_model(thermal_setup, e);
@@ -414,25 +645,36 @@ Identification identify_series(const SeriesRecord& record, SeriesTarget target,
       out.params = {{"r_ohm", 2.0 * k / r_th, 2.0 * se(cov, 4) / r_th}};
       out.t_ratio = se(cov, 4) > 0 ? std::fabs(k) / se(cov, 4) : 1e9;
       out.in_bounds = k > 0.0 && 2.0 * k / r_th < 50.0;
+      out.amplitude_index = 4;
       return out;
     };
   }
-  // Blocked cross-validation: contiguous blocks, every folds-th block held out
-  // together, so each fold spans the whole record.
-  // Blocks of about cv_block_s (at least 4 per fold) are long against the
-  // noise's correlation and short against the record, so an effect confined
-  // to the first minutes (warm_up) still has training data in every fold.
+  // The noise: white plus a Gauss-Markov wander of the bias, fitted per
+  // model. Wander slower than a quarter of the record is left out: it could
+  // not be told from the record's own drift.
+  problem.time_s.assign(bins.time_s.data(), bins.time_s.data() + n);
+  const double mean_count = bins.count.mean();
+  for (std::size_t i = 0; i < n; ++i) problem.white_scale.push_back(mean_count / bins.count(static_cast<Eigen::Index>(i)));
+  problem.wander_tau_min_s = bins.step_s;
+  problem.wander_tau_max_s = std::max(2.0 * bins.step_s, duration / 4.0);
+  // Blocked cross-validation: contiguous blocks of about cv_block_s (at least
+  // 4 per fold), every folds-th block held out together, so each fold spans
+  // the whole record and an effect confined to the first minutes (warm_up)
+  // still has training data in every fold. Held-out errors are innovations
+  // of the noise model, whose correlation (the long-run variance factor, a
+  // few bins) is short against a block even under slow wander.
   problem.folds = options.folds;
-  const double duration = record.time_s.back() - record.time_s.front();
-  const auto blocks = static_cast<std::size_t>(
-      std::max(4.0 * options.folds, std::round(duration / options.cv_block_s)));
+  const double block_s = std::min(options.cv_block_s, duration / (4.0 * options.folds));
   problem.fold_of.resize(n);
+  problem.unit_of.resize(n);
   for (std::size_t i = 0; i < n; ++i) {
-    problem.fold_of[i] = static_cast<int>((i * blocks / n) % static_cast<std::size_t>(options.folds));
+    const auto block = static_cast<int>(bins.time_s(static_cast<Eigen::Index>(i)) / block_s);
+    problem.unit_of[i] = block;
+    problem.fold_of[i] = block % options.folds;
   }
-  if (gyro) {
-    problem.coverage_key.assign(bins.temp_c.data(), bins.temp_c.data() + n);
-  }
+  // Held-out samples the training folds' bias curve would extrapolate to
+  // (leverage above 0.2, ten times that of a typical sample) are not scored.
+  if (gyro) problem.max_held_out_leverage = 0.2;
 
   const SelectionResult sel = select_effects(problem, criteria, progress);
 
@@ -440,7 +682,7 @@ Identification identify_series(const SeriesRecord& record, SeriesTarget target,
   id.target = gyro ? "gyro_mv" : "sensor_c";
   id.units = gyro ? "mV" : "C";
   id.x_name = "time_s";
-  id.note = id_note;
+  for (const auto& line : notes) id.note += (id.note.empty() ? "" : "; ") + line;
   const Eigen::VectorXd& r0 = sel.baseline.residual;
   const Eigen::VectorXd& r1 = sel.final_fit.residual;
   constexpr std::size_t kLags = 20;
@@ -452,12 +694,19 @@ Identification identify_series(const SeriesRecord& record, SeriesTarget target,
   } else {
     id.baseline_params = {{"tau_s", std::pow(10.0, sel.baseline.theta[0]), 0.0}};
   }
+  // The noise of the final model, per bin of bin_s.
+  id.baseline_params.push_back({"bin_s", bins.step_s, 0.0});
+  id.baseline_params.push_back({"white_sd_per_bin", std::sqrt(sel.final_noise.white_var), 0.0});
+  id.baseline_params.push_back({"wander_sd", std::sqrt(sel.final_noise.wander_var), 0.0});
+  id.baseline_params.push_back({"wander_tau_s", sel.final_noise.tau_s, 0.0});
   id.regions = regions_of(bins, r0);
   if (id.regions.size() > 5) id.regions.resize(5);
   id.correlations = correlations_of(bins, r0, !record.tec_a.empty());
   id.added = sel.added;
   id.tried = sel.tried;
   id.verdict = sel.verdict;
+  id.statement = verdict_statement(sel);
+  id.unexplained = sel.unexplained;
   id.final_rms = std::sqrt(r1.squaredNorm() / static_cast<double>(n));
   id.final_max_abs = r1.cwiseAbs().maxCoeff();
   id.whiteness_p_after = ljung_box_p({r1.data(), n}, kLags);
@@ -474,6 +723,9 @@ Identification identify_series(const SeriesRecord& record, SeriesTarget target,
   } else if (first == "warm_up" || first == "linear_drift") {
     id.effect_signal_name = "time since power-on (s)";
     id.effect_signal = to_vec(bins.time_s);
+  } else if (first == "ambient_sensitivity") {
+    id.effect_signal_name = "ambient_c (C)";
+    id.effect_signal = to_vec(bins.ambient_c);
   } else {
     id.effect_signal_name = "dT/dt (C/s)";
     id.effect_signal = to_vec(bins.rate_c_per_s);

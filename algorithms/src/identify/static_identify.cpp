@@ -61,12 +61,14 @@ SelectionProblem quality_problem(std::span<const double> temp_c, const Eigen::Ve
   SelectionProblem problem;
   problem.y = y;
   problem.candidates = {"gas_desorption", "parallel_loss"};
+  problem.probes = {"shape_structure"};
   problem.refit_theta_in_cv = true;
-  problem.autocorrelated = false;
   problem.build = [kelvin, t_ref](const std::vector<std::string>& effects) {
     SeparableModel m;
     std::vector<std::vector<double>> axes;
+    const bool probe = std::find(effects.begin(), effects.end(), "shape_structure") != effects.end();
     for (const auto& e : effects) {
+      if (e == "shape_structure") continue;
       if (e == "gas_desorption") {
         // theta: ln(desorbed fraction at t_ref), Ea in kJ/mol.
         m.theta_lower.insert(m.theta_lower.end(), {-12.0, 1.0});
@@ -81,14 +83,22 @@ SelectionProblem quality_problem(std::span<const double> temp_c, const Eigen::Ve
       }
     }
     m.theta_grid = grid_product(axes);
-    m.evaluate = [kelvin, t_ref, effects](const std::vector<double>& theta, Eigen::MatrixXd& design,
-                                          Eigen::VectorXd& offset) {
+    m.evaluate = [kelvin, t_ref, effects, probe](const std::vector<double>& theta, Eigen::MatrixXd& design,
+                                                 Eigen::VectorXd& offset) {
       const Eigen::Index n_rows = kelvin.size();
-      design = Eigen::MatrixXd::Ones(n_rows, 1);
+      design = Eigen::MatrixXd::Ones(n_rows, probe ? 3 : 1);
+      if (probe) {
+        // A generic change of shape of ln Q: linear and quadratic in T.
+        const double span = std::max(kelvin.maxCoeff() - kelvin.minCoeff(), 1e-9);
+        const Eigen::ArrayXd x = (kelvin.array() - t_ref) / span;
+        design.col(1) = x.matrix();
+        design.col(2) = x.square().matrix();
+      }
       offset = -0.5 * kelvin.array().log();
       Eigen::VectorXd gas = Eigen::VectorXd::Zero(n_rows);
       std::size_t k = 0;
       for (const auto& e : effects) {
+        if (e == "shape_structure") continue;
         if (e == "gas_desorption") {
           const double lb = theta[k];
           const double ea = theta[k + 1];
@@ -101,6 +111,7 @@ SelectionProblem quality_problem(std::span<const double> temp_c, const Eigen::Ve
       }
       k = 0;
       for (const auto& e : effects) {
+        if (e == "shape_structure") continue;
         if (e == "gas_desorption") {
           k += 2;
         } else {
@@ -149,9 +160,11 @@ SelectionProblem quality_problem(std::span<const double> temp_c, const Eigen::Ve
       const double d_ea = (swing(lb, ea + h_ea) - amplitude) / h_ea;
       const double var_amp = d_lb * d_lb * cov(k, k) + d_ea * d_ea * cov(k + 1, k + 1) +
                              2.0 * d_lb * d_ea * cov(k, k + 1);
+      // The amplitude is what must stand out of the noise; with a small
+      // desorbed fraction a and Ea trade off (a exp(-Ea/RT) is what the table
+      // sees), so Ea is reported with its error but not required to be sharp.
       const double se_amp = std::sqrt(std::max(0.0, var_amp));
-      const double se_ea = se(cov, k + 1);
-      out.t_ratio = std::min(se_amp > 0 ? amplitude / se_amp : 1e9, se_ea > 0 ? ea / se_ea : 1e9);
+      out.t_ratio = se_amp > 0 ? std::fabs(amplitude) / se_amp : 1e9;
       out.in_bounds = ea >= 1.0 && ea <= 200.0 && std::isfinite(a);
     } else {
       const double v = fit.theta[t];
@@ -179,16 +192,21 @@ SelectionProblem frequency_problem(std::span<const double> temp_c, const Eigen::
   SelectionProblem problem;
   problem.y = y;
   problem.candidates = {"quadratic_tc"};
+  // A generic change of shape: cubic (and quadratic, when quadratic_tc is
+  // not in the model) in T.
+  problem.probes = {"shape_structure"};
   problem.refit_theta_in_cv = true;
-  problem.autocorrelated = false;
   problem.build = [dt](const std::vector<std::string>& effects) {
+    const auto has = [&](const char* e) { return std::find(effects.begin(), effects.end(), e) != effects.end(); };
     SeparableModel m;
-    m.evaluate = [dt, quadratic = !effects.empty()](const std::vector<double>&, Eigen::MatrixXd& design,
-                                                    Eigen::VectorXd& offset) {
-      design.resize(dt.size(), quadratic ? 3 : 2);
-      design.col(0).setOnes();
-      design.col(1) = dt;
-      if (quadratic) design.col(2) = dt.array().square();
+    m.evaluate = [dt, quadratic = has("quadratic_tc"), probe = has("shape_structure")](
+                     const std::vector<double>&, Eigen::MatrixXd& design, Eigen::VectorXd& offset) {
+      const double span = std::max(dt.cwiseAbs().maxCoeff(), 1e-9);
+      std::vector<Eigen::VectorXd> columns{Eigen::VectorXd::Ones(dt.size()), dt};
+      if (quadratic || probe) columns.push_back(dt.array().square());
+      if (probe) columns.push_back((dt.array() / span).cube());
+      design.resize(dt.size(), static_cast<Eigen::Index>(columns.size()));
+      for (std::size_t c = 0; c < columns.size(); ++c) design.col(static_cast<Eigen::Index>(c)) = columns[c];
       offset = Eigen::VectorXd::Zero(dt.size());
     };
     return m;
@@ -252,6 +270,8 @@ Identification identify_static(std::span<const double> temp_c, std::span<const d
   id.added = sel.added;
   id.tried = sel.tried;
   id.verdict = sel.verdict;
+  id.statement = verdict_statement(sel);
+  id.unexplained = sel.unexplained;
   id.final_rms = std::sqrt(r1.squaredNorm() / static_cast<double>(n));
   id.final_max_abs = r1.cwiseAbs().maxCoeff();
   id.whiteness_p_after = ljung_box_p({r1.data(), n}, lags);

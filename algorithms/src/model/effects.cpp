@@ -7,7 +7,7 @@ namespace gyrotc::model {
 bool Effects::any() const noexcept { return any_on_gyro() || tec_joule_heating.has_value(); }
 
 bool Effects::any_on_gyro() const noexcept {
-  return thermal_lag || rate_sensitivity || ramp_hysteresis || warm_up || linear_drift;
+  return thermal_lag || rate_sensitivity || ramp_hysteresis || warm_up || linear_drift || ambient_sensitivity;
 }
 
 double tec_joule_heat_w(const Effects& effects, double tec_a) noexcept {
@@ -56,6 +56,9 @@ double GyroEffectState::extra_bias_mv() const noexcept {
     mv += effects_.warm_up->a_mv * std::exp(-time_s_ / effects_.warm_up->tau_s);
   }
   if (effects_.linear_drift) mv += effects_.linear_drift->d_mv_per_h * time_s_ / 3600.0;
+  if (effects_.ambient_sensitivity) {
+    mv += effects_.ambient_sensitivity->k_mv_per_c * (ambient_c_ - effects_.ambient_sensitivity->ref_c);
+  }
   return mv;
 }
 

@@ -76,6 +76,7 @@ Plant::Plant(const PlantParams& params, std::uint64_t seed)
   validate(params_);
   dac_lsb_v_ = params_.dac_vref_v / std::ldexp(1.0, params_.dac_bits);
   effects_.reset(die_c_);
+  effects_.set_ambient_c(ambient_c_);
   update_bias();
 }
 
@@ -183,6 +184,7 @@ void Plant::step_thermal(double h) noexcept {
   const double sigma_mv = p.bias_instability_dps * p.scale_mv_per_dps;
   instability_mv_ = phi * instability_mv_ + sigma_mv * std::sqrt(1.0 - phi * phi) * random_.normal();
 
+  effects_.set_ambient_c(ambient_c_);
   effects_.advance(h, die_c_);
   update_bias();
 }

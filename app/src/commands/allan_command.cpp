@@ -1,7 +1,7 @@
-// `gyrotc allan`: noise characterisation of a rate record (issue 9): the
-// overlapping Allan deviation (IEEE Std 952) with its confidence interval,
-// the angle random walk N, bias instability B and rate random walk K, and an
-// optional log-log SVG plot with the slope lines.
+// `gyrotc allan`: noise characterisation of a rate record (issues 9, 20): the
+// overlapping Allan deviation (IEEE Std 952) with EDF-based intervals, the
+// noise terms the record supports with their intervals, and an optional
+// log-log SVG plot with the terms' lines and the fitted model.
 
 #include <nlohmann/json.hpp>
 
@@ -28,6 +28,7 @@ struct AllanOptions {
   double rate_hz = 0.0;  // 0: from time_s
   std::string plot;
   bool json = false;
+  double confidence = 0.95;
 };
 
 bool ends_with(const std::string& s, const std::string& suffix) {
@@ -46,7 +47,31 @@ double rate_from_time(const CsvTable& table) {
   return static_cast<double>(t.size() - 1) / (t.back() - t.front());
 }
 
-plot::Figure allan_figure(const stats::AllanResult& r, const std::string& title, const std::string& column) {
+// A term in the units people quote: Q deg, N deg/sqrt(h),
+// B deg/h, K deg/h/sqrt(h), R deg/h/h.
+struct Quoted {
+  const char* json_key;
+  const char* label;
+  const char* unit;
+  double scale;  // from the fit's deg/s-based unit
+};
+
+Quoted quoted(stats::NoiseTerm t) {
+  switch (t) {
+    case stats::NoiseTerm::quantisation: return {"quantisation_deg", "quantisation Q", "deg", 1.0};
+    case stats::NoiseTerm::angle_random_walk:
+      return {"arw_deg_per_rt_h", "angle random walk N", "deg/sqrt(h)", stats::arw_deg_per_rt_h(1.0)};
+    case stats::NoiseTerm::bias_instability:
+      return {"bias_instability_deg_per_h", "bias instability B", "deg/h", stats::bias_deg_per_h(1.0)};
+    case stats::NoiseTerm::rate_random_walk:
+      return {"rrw_deg_per_h_per_rt_h", "rate random walk K", "deg/h/sqrt(h)", stats::rrw_deg_per_h_per_rt_h(1.0)};
+    case stats::NoiseTerm::rate_ramp: return {"rate_ramp_deg_per_h2", "rate ramp R", "deg/h^2", 3600.0 * 3600.0};
+  }
+  return {"", "", "", 1.0};
+}
+
+plot::Figure allan_figure(const stats::AllanResult& r, const std::string& title, const std::string& column,
+                          double confidence) {
   plot::Figure f;
   f.title = title;
   f.x.title = "cluster time tau (s)";
@@ -57,7 +82,9 @@ plot::Figure allan_figure(const stats::AllanResult& r, const std::string& title,
   plot::Series adev, lo, hi;
   adev.label = "overlapping Allan deviation";
   adev.color = "#1f77b4";
-  lo.label = "1-sigma interval";
+  char label[160];
+  std::snprintf(label, sizeof label, "%.0f %% interval (chi-square, EDF of the fitted noise)", 100.0 * confidence);
+  lo.label = label;
   hi.label = "";
   lo.color = hi.color = "#9ecae1";
   for (const auto& pt : r.points) {
@@ -71,19 +98,28 @@ plot::Figure allan_figure(const stats::AllanResult& r, const std::string& title,
   const double t0 = r.points.front().tau_s;
   const double t1 = r.points.back().tau_s;
   p.series = {adev, lo, hi};
-  char label[96];
-  if (r.arw.value_at_ref > 0.0) {
-    std::snprintf(label, sizeof label, "N = %.3g /sqrt(s) (slope -1/2, at 1 s)", r.arw.value_at_ref);
-    p.series.push_back(plot::power_law_line(label, r.arw.value_at_ref, 1.0, -0.5, t0, t1, "#d62728"));
+  const char* colors[] = {"#9467bd", "#d62728", "#ff7f0e", "#2ca02c", "#8c564b"};
+  for (stats::NoiseTerm t : stats::kAllNoiseTerms) {
+    const stats::TermEstimate& e = r.fit.term(t);
+    if (!e.included) continue;
+    const Quoted q = quoted(t);
+    const int power = stats::noise_term_power(t);
+    static const char* slopes[] = {"-1", "-1/2", "0", "+1/2", "+1"};
+    std::snprintf(label, sizeof label, "%s = %.3g %s (slope %s)", q.label, e.value * q.scale, q.unit,
+                  slopes[static_cast<std::size_t>(power + 2)]);
+    // ADEV of the term alone: sqrt(c) tau^(power / 2), drawn through tau = 1 s.
+    p.series.push_back(plot::power_law_line(label, std::sqrt(stats::avar_coefficient(t, e.value)), 1.0, 0.5 * power,
+                                            t0, t1, colors[static_cast<std::size_t>(t)]));
   }
-  if (r.rrw.value_at_ref > 0.0) {
-    std::snprintf(label, sizeof label, "K = %.3g /s/sqrt(s) (slope +1/2, at 3 s)", r.rrw.value_at_ref);
-    p.series.push_back(plot::power_law_line(label, r.rrw.value_at_ref, 3.0, 0.5, t0, t1, "#2ca02c"));
+  std::snprintf(label, sizeof label, "fitted model");
+  plot::Series model;
+  model.label = label;
+  model.color = "#000000";
+  for (const auto& pt : r.points) {
+    model.x.push_back(pt.tau_s);
+    model.y.push_back(std::sqrt(r.fit.avar(pt.tau_s)));
   }
-  if (r.bias_instability.valid) {
-    std::snprintf(label, sizeof label, "0.664 B, B = %.3g (flat minimum / 0.664)", r.bias_instability.value_at_ref);
-    p.series.push_back(plot::power_law_line(label, 0.664 * r.bias_instability.value_at_ref, 1.0, 0.0, t0, t1, "#ff7f0e"));
-  }
+  if (r.fit.valid) p.series.push_back(model);
   f.panels = {p};
   return f;
 }
@@ -92,6 +128,7 @@ void run(const AllanOptions& o) {
   if (!o.plot.empty() && !ends_with(o.plot, ".svg")) {
     throw InputError("--plot " + o.plot + ": only .svg is supported");
   }
+  if (!(o.confidence > 0.0 && o.confidence < 1.0)) throw InputError("--confidence: must lie between 0 and 1");
   if (!o.plot.empty()) prepare_output_file(o.plot, "--plot");
   const CsvTable table = CsvTable::read(o.data);
   const std::vector<double> rate = table.numbers(o.column);  // names file/line/column of a bad cell
@@ -100,55 +137,76 @@ void run(const AllanOptions& o) {
                      " sample(s); the Allan deviation needs at least 2");
   }
   const double rate_hz = o.rate_hz > 0.0 ? o.rate_hz : rate_from_time(table);
+  stats::AllanOptions so;
+  so.confidence = o.confidence;
   stats::AllanResult r;
   try {
-    r = stats::allan_deviation(rate, rate_hz);
+    r = stats::allan_deviation(rate, rate_hz, so);
   } catch (const std::invalid_argument& e) {
     throw InputError(o.data + ": " + e.what());
   }
   if (!o.plot.empty()) {
-    plot::write_svg(allan_figure(r, "Allan deviation of " + o.data + " (" + o.column + ")", o.column), o.plot);
+    plot::write_svg(allan_figure(r, "Allan deviation of " + o.data + " (" + o.column + ")", o.column, o.confidence),
+                    o.plot);
   }
-  const double n = r.arw.value_at_ref;
-  const double b = r.bias_instability.value_at_ref;
-  const double k = r.rrw.value_at_ref;
   if (o.json) {
     nlohmann::json j;
     j["data"] = o.data;
     j["column"] = o.column;
     j["samples"] = r.samples;
     j["rate_hz"] = r.rate_hz;
-    std::vector<double> tau, adev, lo, hi;
+    j["confidence"] = o.confidence;
+    std::vector<double> tau, adev, lo, hi, edf;
     for (const auto& p : r.points) {
       tau.push_back(p.tau_s);
       adev.push_back(p.adev);
       lo.push_back(p.ci_low);
       hi.push_back(p.ci_high);
+      edf.push_back(p.edf);
     }
     j["tau_s"] = tau;
     j["adev_dps"] = adev;
     j["adev_ci_low_dps"] = lo;
     j["adev_ci_high_dps"] = hi;
-    j["arw_deg_per_rt_h"] = stats::arw_deg_per_rt_h(n);
-    j["bias_instability_deg_per_h"] = stats::bias_deg_per_h(b);
-    j["bias_instability_tau_s"] = r.bias_instability.ref_tau_s;
-    j["rrw_deg_per_h_per_rt_h"] = stats::rrw_deg_per_h_per_rt_h(k);
+    j["adev_edf"] = edf;
+    for (stats::NoiseTerm t : stats::kAllNoiseTerms) {
+      const stats::TermEstimate& e = r.fit.term(t);
+      const Quoted q = quoted(t);
+      const std::string key = q.json_key;
+      j[key] = e.included ? nlohmann::json(e.value * q.scale) : nlohmann::json(nullptr);
+      j[key + "_ci"] = e.included ? nlohmann::json{e.ci_low * q.scale, e.ci_high * q.scale} : nlohmann::json(nullptr);
+      j[key + "_upper"] = !e.included && e.upper_bound > 0.0 ? nlohmann::json(e.upper_bound * q.scale) : nlohmann::json(nullptr);
+    }
+    j["fit_valid"] = r.fit.valid;
     if (!o.plot.empty()) j["plot"] = o.plot;
     std::printf("%s\n", j.dump(2).c_str());
     return;
   }
   std::printf("gyrotc allan: %s, column %s: %zu samples at %g Hz (%.0f s)\n", o.data.c_str(), o.column.c_str(),
               r.samples, r.rate_hz, static_cast<double>(r.samples) / r.rate_hz);
-  std::printf("  %12s %14s %14s %14s\n", "tau_s", "adev_dps", "ci_low_dps", "ci_high_dps");
+  std::printf("  %12s %14s %10s %14s %14s   (%.0f %% interval)\n", "tau_s", "adev_dps", "edf", "ci_low_dps",
+              "ci_high_dps", 100.0 * o.confidence);
   for (const auto& p : r.points) {
-    std::printf("  %12.4g %14.5g %14.5g %14.5g\n", p.tau_s, p.adev, p.ci_low, p.ci_high);
+    std::printf("  %12.4g %14.5g %10.4g %14.5g %14.5g\n", p.tau_s, p.adev, p.edf, p.ci_low, p.ci_high);
   }
-  std::printf("  angle random walk N     %.4g deg/sqrt(h)   (slope -1/2 line at tau = 1 s)\n",
-              stats::arw_deg_per_rt_h(n));
-  std::printf("  bias instability B      %.4g deg/h         (minimum at tau = %.3g s, / 0.664)\n",
-              stats::bias_deg_per_h(b), r.bias_instability.ref_tau_s);
-  std::printf("  rate random walk K      %.4g deg/h/sqrt(h) (slope +1/2 line at tau = 3 s)\n",
-              stats::rrw_deg_per_h_per_rt_h(k));
+  if (!r.fit.valid) {
+    std::printf("  noise terms: too few points to fit\n");
+    return;
+  }
+  std::printf("  noise terms (%.0f %% intervals; a term is reported only when the data support it):\n",
+              100.0 * o.confidence);
+  for (stats::NoiseTerm t : stats::kAllNoiseTerms) {
+    const stats::TermEstimate& e = r.fit.term(t);
+    const Quoted q = quoted(t);
+    if (e.included) {
+      std::printf("  %-22s %10.4g %-14s [%.4g, %.4g]\n", q.label, e.value * q.scale, q.unit, e.ci_low * q.scale,
+                  e.ci_high * q.scale);
+    } else if (e.upper_bound > 0.0) {
+      std::printf("  %-22s %10s %-14s not resolved; below %.4g\n", q.label, "-", q.unit, e.upper_bound * q.scale);
+    } else {
+      std::printf("  %-22s %10s %-14s not resolved\n", q.label, "-", q.unit);
+    }
+  }
   if (!o.plot.empty()) std::printf("  plot: %s\n", o.plot.c_str());
 }
 
@@ -159,19 +217,25 @@ void add_allan_command(CLI::App& app) {
   CLI::App* cmd = app.add_subcommand(
       "allan",
       "Noise characterisation (IEEE Std 952): overlapping Allan deviation of a rate record at\n"
-      "log-spaced cluster times (10 per decade) with a 1-sigma interval 1/sqrt(2(n/m - 1)), and the\n"
-      "angle random walk N (slope -1/2, at 1 s), bias instability B (minimum / 0.664) and rate random\n"
-      "walk K (slope +1/2, at 3 s) from a non-negative least-squares fit of the standard terms.\n"
-      "The rate is taken as deg/s. Records: `gyrotc simulate --rate-csv` or any CSV with the column.");
+      "log-spaced cluster times (10 per decade), each with a chi-square interval from its equivalent\n"
+      "degrees of freedom (Greenhall's algorithm for the fitted mixture of noise types), and the\n"
+      "terms quantisation Q, angle random walk N, bias instability B, rate random walk K and rate\n"
+      "ramp R fitted by maximum likelihood over every cluster time, each with its interval; a term is\n"
+      "reported only when an information criterion supports it. The rate is taken as deg/s.\n"
+      "Records: `gyrotc simulate --rate-csv` or any CSV with the column.");
   cmd->add_option("--data", options->data, "CSV record with a header row")->required();
   cmd->add_option("--column", options->column, "rate column (deg/s)")->capture_default_str();
   cmd->add_option("--rate-hz", options->rate_hz,
                   "sample rate; default: (samples - 1) / span of the strictly increasing time_s column")
       ->check(CLI::PositiveNumber);
   cmd->add_option("--plot", options->plot, "log-log plot with the slope lines (SVG only: FILE.svg)");
+  cmd->add_option("--confidence", options->confidence, "confidence of the intervals")->capture_default_str();
   cmd->add_flag("--json", options->json,
-                "print one JSON object: samples, rate_hz, tau_s, adev_dps, adev_ci_low_dps, adev_ci_high_dps, "
-                "arw_deg_per_rt_h, bias_instability_deg_per_h, rrw_deg_per_h_per_rt_h");
+                "print one JSON object: samples, rate_hz, confidence, tau_s, adev_dps, adev_ci_low_dps,\n"
+                "adev_ci_high_dps, adev_edf, and per term quantisation_deg, arw_deg_per_rt_h,\n"
+                "bias_instability_deg_per_h, rrw_deg_per_h_per_rt_h, rate_ramp_deg_per_h2 (null when not\n"
+                "resolved) with its interval as KEY_ci = [low, high], or KEY_upper, the upper bound of a\n"
+                "term not resolved");
   cmd->callback([options] { run(*options); });
 }
 

@@ -129,6 +129,8 @@ nlohmann::json to_json(const id::Identification& r, double elapsed_s) {
     j["tried"].push_back({{"round", t.round},
                           {"effect", t.effect},
                           {"delta_bic", t.delta_bic},
+                          {"p_value", t.p_value},
+                          {"long_run_factor", t.long_run_factor},
                           {"cv_gain", t.cv_gain},
                           {"folds_improved", t.folds_improved},
                           {"t_ratio", t.t_ratio},
@@ -137,6 +139,8 @@ nlohmann::json to_json(const id::Identification& r, double elapsed_s) {
                           {"reason", t.reason}});
   }
   j["verdict"] = r.verdict;
+  j["statement"] = r.statement;
+  j["unexplained"] = r.unexplained;
   if (!r.note.empty()) j["note"] = r.note;
   j["final"] = {{"rms", r.final_rms}, {"max_abs", r.final_max_abs}, {"whiteness_p", r.whiteness_p_after}};
   j["shrink"] = r.shrink;
@@ -171,7 +175,7 @@ std::string summary(const id::Identification& r, double elapsed_s) {
     s << line;
   }
   if (!r.note.empty()) s << "note: " << r.note << "\n";
-  s << "verdict: " << r.verdict << "\n";
+  s << "verdict: " << r.verdict << " (" << r.statement << ")\n";
   std::snprintf(line, sizeof line, "final rms %.4g %s (max %.4g), whiteness p %.3g, shrink %.2fx, %.2f s\n",
                 r.final_rms, r.units.c_str(), r.final_max_abs, r.whiteness_p_after, r.shrink, elapsed_s);
   s << line;
@@ -242,8 +246,8 @@ void write_report(const id::Identification& r, const IdentifyOptions& o, double 
 
   std::ostringstream md;
   md << "# gyrotc identify: " << r.target << "\n\n";
-  md << "Data: `" << o.data << "`. Verdict: **" << r.verdict << "**. Shrink of the RMS gap: **"
-     << r.shrink << "x**.\n\n";
+  md << "Data: `" << o.data << "`. Verdict: **" << r.verdict << "**: " << r.statement
+     << ". Shrink of the RMS gap: **" << r.shrink << "x**.\n\n";
   md << "| | RMS (" << r.units << ") | max abs | Ljung-Box whiteness p |\n|---|---|---|---|\n";
   md << "| baseline | " << r.baseline_rms << " | " << r.baseline_max_abs << " | " << r.whiteness_p_before << " |\n";
   md << "| final | " << r.final_rms << " | " << r.final_max_abs << " | " << r.whiteness_p_after << " |\n\n";
@@ -267,17 +271,18 @@ void write_report(const id::Identification& r, const IdentifyOptions& o, double 
     md << "### " << a.effect << "\n\n| parameter | value | standard error |\n|---|---|---|\n";
     for (const auto& p : a.params) md << "| " << p.name << " | " << p.value << " | " << p.std_error << " |\n";
     md << "\ndelta BIC " << a.delta_bic << ", RMS after " << a.rms_after << " " << r.units
-       << ".\n\nHeld-out RMS per fold (before -> after):";
+       << ".\n\nHeld-out RMS per fold, before -> after (time series: of the one-step prediction errors under the noise model):";
     for (std::size_t f = 0; f < a.fold_rms_before.size(); ++f) {
       md << " " << a.fold_rms_before[f] << " -> " << a.fold_rms_after[f] << ";";
     }
     md << "\n\n";
   }
   if (!r.note.empty()) md << "Note: " << r.note << "\n\n";
-  md << "## Every candidate tried\n\n| round | effect | delta BIC | CV gain | folds improved | t ratio | in bounds | "
-        "kept / why not |\n|---|---|---|---|---|---|---|---|\n";
+  md << "## Every candidate tried\n\nRound 0: the generic probes, tried after the library; one that passes means "
+        "structure remains that no library effect explains.\n\n| round | effect | p-value | delta BIC | CV gain | "
+        "folds improved | t ratio | in bounds | kept / why not |\n|---|---|---|---|---|---|---|---|---|\n";
   for (const auto& t : r.tried) {
-    md << "| " << t.round << " | " << t.effect << " | " << t.delta_bic << " | " << t.cv_gain << " | "
+    md << "| " << t.round << " | " << t.effect << " | " << t.p_value << " | " << t.delta_bic << " | " << t.cv_gain << " | "
        << t.folds_improved << " | " << t.t_ratio << " | " << (t.in_bounds ? "yes" : "no") << " | "
        << (t.passed ? "passed" : t.reason) << " |\n";
   }
@@ -309,6 +314,8 @@ void write_plant(const id::Identification& r, const IdentifyOptions& o) {
       params.effects.warm_up = model::WarmUpEffect{value(a, "a_mv"), value(a, "tau_s")};
     } else if (a.effect == "linear_drift") {
       params.effects.linear_drift = model::LinearDriftEffect{value(a, "d_mv_per_h")};
+    } else if (a.effect == "ambient_sensitivity") {
+      params.effects.ambient_sensitivity = model::AmbientSensitivityEffect{value(a, "k_mv_per_c"), value(a, "ref_c")};
     } else if (a.effect == "tec_joule_heating") {
       params.effects.tec_joule_heating = model::TecJouleHeatingEffect{value(a, "r_ohm")};
     }
@@ -354,9 +361,11 @@ void add_identify_command(CLI::App& app) {
   auto options = std::make_shared<IdentifyOptions>();
   CLI::App* cmd = app.add_subcommand(
       "identify",
-      "Find the physical effect the model lacks: calibrate the base model to a record, localise the gap, "
-      "try each named effect (BIC, blocked cross-validation, confidence intervals), report the verdict "
-      "and how much the gap shrinks.");
+      "Find the physical effect the model lacks: calibrate the base model (and, on time series, its noise: "
+      "white plus a slow bias wander) to a record, localise the gap, try each named effect (a nested-model "
+      "test whose p-value scales with the record, blocked cross-validation, confidence intervals, physical "
+      "bounds), report what the record is consistent with and how much the gap shrinks. Time series may be "
+      "irregularly sampled; gaps are bridged or the record refused with the reason.");
   cmd->add_option("--data", options->data,
                   "CSV record: time series (time_s, ambient_c, sensor_c, gyro_mv[, tec_a]) or a static "
                   "table (temp_c with drive_q, sense_q, drive_freq_hz, sense_freq_hz)")

@@ -1,4 +1,5 @@
 // `gyrotc probe`: read every configured device once and say what was found.
+#include <algorithm>
 #include <cstdio>
 #include <filesystem>
 #include <string>
@@ -13,6 +14,7 @@
 #include "gyrotc/app/commands.hpp"
 #include "gyrotc/app/daemon/config.hpp"
 #include "gyrotc/app/errors.hpp"
+#include "gyrotc/hal/linux/gpio_persistence.hpp"
 
 namespace gyrotc::app {
 
@@ -20,12 +22,12 @@ namespace {
 
 struct DeviceResult {
   std::string device;
-  std::string status;  // "ok", "error", "skipped"
+  std::string status;  // "ok", "warning", "error", "skipped"
   std::string detail;
 };
 
 std::string format(const char* fmt, auto... args) {
-  char buffer[256];
+  char buffer[320];
   std::snprintf(buffer, sizeof buffer, fmt, args...);
   return buffer;
 }
@@ -37,33 +39,68 @@ DeviceResult probe_sensor(const char* device, hal::TemperatureSensor& sensor) {
   return {device, "error", name + ": " + std::string(hal::to_string(reading.fault))};
 }
 
+// One sample for its value, then a short run of reads for the driver's
+// counters (conversions dropped as late reads, DRDY line noise, conversions
+// missed); probe runs without real-time priority, so some misses are normal.
+DeviceResult probe_adc(hal::Board& board, double sample_period_s, double timeout_s) {
+  const hal::Result<hal::AdcSample> sample = board.adc.read(timeout_s);
+  if (!sample) return {"adc", "error", std::string(sample.error().message())};
+  const int burst = static_cast<int>(std::clamp(0.2 / sample_period_s, 1.0, 200.0));
+  int read = 1;
+  for (int i = 1; i < burst; ++i) {
+    if (board.adc.read(timeout_s)) ++read;
+  }
+  const hal::AdcReadStats stats = board.adc.stats();
+  return {"adc", "ok",
+          format("code %d = %.4f mV%s; %d of %d reads: late reads %llu, spurious edges %llu, missed conversions %llu",
+                 sample->code, sample->gyro_mv, sample->clipped ? " (clipped at full scale)" : "", read, burst,
+                 static_cast<unsigned long long>(stats.late_reads),
+                 static_cast<unsigned long long>(stats.spurious_edges),
+                 static_cast<unsigned long long>(stats.missed_conversions))};
+}
+
+// E/S shows a thermal shutdown only while the OPA548 is enabled (disabled,
+// the board holds it low), and only through a sense line: with one, the
+// OPA548 is enabled for kThermalLookS with the DAC at 0 A, then disabled.
+constexpr double kThermalLookS = 0.01;
+
+DeviceResult probe_opa548(hal::Board& board) {
+  if (!board.tec.senses_thermal()) {
+    return {"opa548", "warning",
+            "disabled; thermal state unknown: no E/S sense line ([devices.opa548] es_sense), the E/S GPIO only "
+            "drives the pin, so a thermal shutdown cannot be seen"};
+  }
+  hal::Result<hal::ThermalStatus> status = hal::ThermalStatus::unknown;
+  if (const hal::Status on = board.tec.enable(true); !on) {
+    status = on.error();
+  } else {
+    board.clock.sleep_until(board.clock.now_s() + kThermalLookS);
+    status = board.tec.thermal_status();
+  }
+  const hal::Status off = board.tec.safe_off();
+  if (!off) return {"opa548", "error", "could not disable it again: " + std::string(off.error().message())};
+  if (!status) return {"opa548", "error", std::string(status.error().message())};
+  if (*status == hal::ThermalStatus::shutdown) {
+    return {"opa548", "error", "thermal shutdown: E/S read low while enabled at 0 A; disabled again"};
+  }
+  return {"opa548", "ok", format("thermal flag %s (enabled %.0f ms at 0 A to read E/S), disabled again",
+                                 std::string(hal::to_string(*status)).c_str(), kThermalLookS * 1e3)};
+}
+
 // Reads each device of a built board once. The outputs stay safe: the TEC
 // at 0 A with the OPA548 disabled, the rate DAC where the board put it.
-std::vector<DeviceResult> probe_board(hal::Board board, double adc_timeout_s) {
+std::vector<DeviceResult> probe_board(hal::Board board, double sample_period_s, double adc_timeout_s) {
   std::vector<DeviceResult> results;
-  const hal::Result<hal::AdcSample> sample = board.adc.read(adc_timeout_s);
-  if (sample) {
-    results.push_back({"adc", "ok",
-                       format("code %d = %.4f mV%s", sample->code, sample->gyro_mv,
-                              sample->clipped ? " (clipped at full scale)" : "")});
-  } else {
-    results.push_back({"adc", "error", std::string(sample.error().message())});
-  }
+  results.push_back(probe_adc(board, sample_period_s, adc_timeout_s));
   results.push_back(probe_sensor("casing_sensor", board.casing_sensor));
   if (board.ambient_sensor != nullptr) results.push_back(probe_sensor("ambient_sensor", *board.ambient_sensor));
   results.push_back({"rate_dac", "ok", "written at mid-scale (the AD5060 has no read-back)"});
   if (const hal::Status off = board.tec.safe_off(); off) {
     results.push_back({"tec_dac", "ok", "at 0 A (mid-scale)"});
+    results.push_back(probe_opa548(board));
   } else {
     results.push_back({"tec_dac", "error", std::string(off.error().message())});
-  }
-  const hal::Result<bool> flag = board.tec.thermal_flag();
-  if (!flag) {
-    results.push_back({"opa548", "error", std::string(flag.error().message())});
-  } else if (*flag) {
-    results.push_back({"opa548", "error", "thermal shutdown flag set"});
-  } else {
-    results.push_back({"opa548", "ok", "disabled, thermal flag clear"});
+    results.push_back({"opa548", "skipped", "not enabled to read E/S: the TEC DAC is not known to be at 0 A"});
   }
   return results;
 }
@@ -91,14 +128,15 @@ void run_probe(const std::string& config_path, bool json) {
   const DaemonConfig daemon = load_daemon_config(config_path);
   const BoardConfig& config = daemon.board;
   std::vector<DeviceResult> results;
-  const double adc_timeout_s = 10.0 * hal::Ads1251::kClocksPerSample / config.devices.adc.fclk_hz + 0.1;
+  const double sample_period_s = hal::Ads1251::kClocksPerSample / config.devices.adc.fclk_hz;
+  const double adc_timeout_s = 10.0 * sample_period_s + 0.1;
   if (config.hal == HalKind::sim) {
     BoardInstance instance = make_board(config, SimTiming::lockstep);
-    results = probe_board(instance.board(), adc_timeout_s);
+    results = probe_board(instance.board(), sample_period_s, adc_timeout_s);
   } else {
     hal::LinuxBoard::Opened opened = hal::LinuxBoard::open(config.devices);
     if (opened.board) {
-      results = probe_board(opened.board->board(), adc_timeout_s);
+      results = probe_board(opened.board->board(), sample_period_s, adc_timeout_s);
     } else {
       std::vector<std::string> devices{"adc", "casing_sensor"};
       if (config.devices.ambient_sensor) devices.push_back("ambient_sensor");
@@ -113,12 +151,17 @@ void run_probe(const std::string& config_path, bool json) {
         }
       }
     }
+    if (hal::gpio_outputs_persist().value_or(false)) {
+      results.push_back({"gpio_release", "warning",
+                         std::string("released GPIO outputs keep driving (") + hal::kPersistGpioOutputsPath +
+                             " = Y): a gyrotc dying outside systemd leaves E/S as it was; set dtparam=strict_gpiod"});
+    }
   }
 
   results.push_back(probe_calibration(daemon.calibration_file));
 
   bool all_ok = true;
-  for (const DeviceResult& r : results) all_ok = all_ok && r.status == "ok";
+  for (const DeviceResult& r : results) all_ok = all_ok && (r.status == "ok" || r.status == "warning");
   const char* hal_name = config.hal == HalKind::sim ? "sim" : "linux";
   if (json) {
     nlohmann::json out{{"hal", hal_name}, {"ok", all_ok}, {"devices", nlohmann::json::array()}};
@@ -129,8 +172,11 @@ void run_probe(const std::string& config_path, bool json) {
   } else {
     std::printf("board: hal = \"%s\" (%s)\n", hal_name, config_path.c_str());
     for (const DeviceResult& r : results) {
-      std::printf("%-15s %-7s %s\n", r.device.c_str(),
-                  r.status == "ok" ? "OK" : r.status == "error" ? "ERROR" : "SKIPPED", r.detail.c_str());
+      const char* status = r.status == "ok"        ? "OK"
+                           : r.status == "warning" ? "WARNING"
+                           : r.status == "error"   ? "ERROR"
+                                                   : "SKIPPED";
+      std::printf("%-15s %-7s %s\n", r.device.c_str(), status, r.detail.c_str());
     }
   }
   std::fflush(stdout);
@@ -142,10 +188,13 @@ void run_probe(const std::string& config_path, bool json) {
 void add_probe_command(CLI::App& app) {
   auto* cmd = app.add_subcommand(
       "probe",
-      "Read every configured device once (temperature sensor(s), one ADC sample, the OPA548 thermal flag) and "
-      "print what was found, one line per device, then the calibration the configuration names (file, model, "
-      "temperature range, SHA-256). DACs are left at 0 A / mid-scale and the OPA548 disabled. "
-      "Exit status 1 if any device or the calibration failed.");
+      "Read every configured device once and print what was found, one line per device: the temperature "
+      "sensor(s), the ADC (one sample, then 0.2 s of reads for the driver's counts of late reads, spurious DRDY "
+      "edges and missed conversions), the OPA548 thermal flag (with an es_sense line the OPA548 is enabled for "
+      "10 ms with the TEC DAC at 0 A to read E/S; without one the state is unknown, a WARNING); then the "
+      "calibration the configuration names (file, model, temperature range, SHA-256). DACs are left at 0 A / "
+      "mid-scale and the OPA548 disabled. Exit status 1 if any device or the calibration failed (warnings do "
+      "not count).");
   auto config_path = std::make_shared<std::string>();
   auto json = std::make_shared<bool>(false);
   cmd->add_option("-c,--config", *config_path,

@@ -17,7 +17,8 @@ void add_record_command(CLI::App& app) {
       "Run the board (as `gyrotc run`) and record what a calibration needs: one CSV row per [output]\n"
       "period_s with time_s, sensor_c (casing DS18B20), ambient_c, gyro_mv (raw, mean), the compensated\n"
       "rate, tec_a and the flags. `gyrotc fit --data FILE.csv` reads it (time_s, sensor_c, gyro_mv).\n"
-      "With --pid off the TEC stays off and the chamber sweeps the temperature.");
+      "With --pid off the TEC stays off and the chamber sweeps the temperature; with --experiment tune\n"
+      "the record is the identification experiment `gyrotc tune` reads.");
   cmd->add_option("-c,--config", options->config_path, "configuration file (TOML), as for `gyrotc run`")
       ->capture_default_str();
   cmd->add_option("--out", options->record_csv, "CSV file to write")->required();
@@ -26,11 +27,20 @@ void add_record_command(CLI::App& app) {
   cmd->add_option("--pid", *pid, "on: hold the setpoint; off: TEC off (a free temperature sweep)")
       ->check(CLI::IsMember({"on", "off"}))
       ->capture_default_str();
+  auto experiment = std::make_shared<std::string>();
+  cmd->add_option("--experiment", *experiment,
+                  "tune: run the identification experiment of `gyrotc tune` instead of the PID (rest, full\n"
+                  "current to the setpoint, relay, PRBS, coast, cooling, reheat; at most 2 h 37 min, every\n"
+                  "fail-safe on) and stop when it ends; then `gyrotc tune --data FILE.csv --out controller.toml`")
+      ->check(CLI::IsMember({"tune"}));
+  cmd->add_option("--controller", options->controller_file,
+                  "a controller file (`gyrotc tune`'s) in place of the configuration's [control] gains");
   cmd->add_flag("--allow-non-rt", options->allow_non_rt,
                 "run without SCHED_FIFO / locked memory when not permitted (a warning)");
   cmd->add_option("--summary-json", options->summary_json, "write the run's summary here");
-  cmd->callback([options, pid] {
+  cmd->callback([options, pid, experiment] {
     options->pid = *pid == "on";
+    options->tune_experiment = *experiment == "tune";
     run_session(*options);
   });
 }

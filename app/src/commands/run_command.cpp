@@ -21,10 +21,14 @@ void add_run_command(CLI::App& app) {
       ->capture_default_str();
   cmd->add_option("--duration", options->duration_s, "stop after this many seconds (default: until a signal)")
       ->check(CLI::PositiveNumber);
+  cmd->add_option("--controller", options->controller_file,
+                  "a controller file (`gyrotc tune`'s) in place of the configuration's [control] gains");
   cmd->add_flag("--allow-non-rt", options->allow_non_rt,
                 "run without SCHED_FIFO / locked memory when not permitted (a warning; samples may be late)");
   cmd->add_option("--summary-json", options->summary_json,
-                  "write the run's summary (samples, overruns, missed_drdy, latency_us min/avg/p50/p99/max) here");
+                  "write the run's summary here (JSON: samples, overruns, missed_conversions, late_reads, "
+                  "spurious_edges, adc_timeouts, latency_us min/avg/p50/p99/max; with hal = \"sim\" also sim_adc, "
+                  "what the simulated ADS1251 saw)");
   cmd->callback([options] { run_session(*options); });
 }
 

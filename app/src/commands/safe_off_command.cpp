@@ -14,7 +14,10 @@ void add_safe_off_command(CLI::App& app) {
   CLI::App* cmd = app.add_subcommand(
       "safe-off",
       "Put the TEC stage in the safe state and exit: TEC DAC to 0 A, then the OPA548 disabled, rate DAC\n"
-      "mid-scale. For systemd's ExecStopPost, so a crashed or killed daemon never leaves the TEC driving.");
+      "mid-scale. For systemd's ExecStopPost, so a crashed or killed daemon never leaves the TEC driving.\n"
+      "Opens only those devices: exit 0 once the TEC path is safe, whatever else is missing (a rate DAC\n"
+      "that cannot be set is a warning); exit 1 if the TEC path could not be made safe or another gyrotc\n"
+      "holds the board.");
   cmd->add_option("-c,--config", *config_path, "configuration file (TOML), as for `gyrotc run`")
       ->capture_default_str();
   cmd->callback([config_path] {

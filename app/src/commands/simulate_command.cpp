@@ -15,9 +15,11 @@
 #include <string>
 
 #include "gyrotc/algorithms/fit/bias_model.hpp"
+#include "gyrotc/algorithms/tune/experiment.hpp"
 #include "gyrotc/app/calibration_file.hpp"
 #include "gyrotc/app/chamber_profile_file.hpp"
 #include "gyrotc/app/commands.hpp"
+#include "gyrotc/app/controller_file.hpp"
 #include "gyrotc/app/data_dir.hpp"
 #include "gyrotc/app/errors.hpp"
 #include "gyrotc/app/lockstep_runner.hpp"
@@ -25,12 +27,14 @@
 #include "gyrotc/app/progress.hpp"
 #include "gyrotc/app/svg_plot.hpp"
 #include "gyrotc/app/output_path.hpp"
+#include "gyrotc/app/tuning.hpp"
 
 namespace gyrotc::app {
 namespace {
 
 struct SimulateOptions {
   std::string profile = "fig26";
+  double ambient_c = 16.0;  // --profile tune: the room's temperature
   std::string controller = "paper";
   std::string plant;
   std::string calibration;
@@ -150,7 +154,7 @@ nlohmann::json summary_json(const SimulateOptions& o, const std::string& calibra
   nlohmann::json j;
   const auto& s = r.summary;
   j["profile"] = o.profile;
-  j["controller"] = o.controller;
+  j["controller"] = o.profile == "tune" ? std::string("identification experiment") : o.controller;
   j["calibration"] = calibration_name;
   j["sample_rate_hz"] = o.sample_rate_hz;
   j["seed"] = o.seed;
@@ -220,21 +224,46 @@ void print_text(const nlohmann::json& j, const std::optional<std::string>& csv,
                 seg.contains("bias_uncompensated_dps") ? num(seg["bias_uncompensated_dps"], "%.3f").c_str() : "-",
                 seg.contains("bias_compensated_dps") ? num(seg["bias_compensated_dps"], "%.3f").c_str() : "-");
   }
+  if (j.contains("record")) {
+    std::printf("  identification experiment: %.0f s at %.1f C ambient%s; record for `gyrotc tune`: %s\n",
+                j["experiment"]["duration_s"].get<double>(), j["experiment"]["ambient_c"].get<double>(),
+                j["experiment"]["finished"].get<bool>() ? "" : " (did not finish)",
+                j["record"].get<std::string>().c_str());
+  }
   if (csv) std::printf("  time series (1 Hz CSV): %s\n", csv->c_str());
   if (plot) std::printf("  plot: %s\n", plot->c_str());
+}
+
+// A preset by name, or a controller file (tune's output) on the plant's limits.
+ControllerConfig controller_for(const std::string& name, const model::PlantParams& plant) {
+  if (name == "paper" || name == "tuned" || name == "off") return controller_preset(parse_controller_mode(name), plant);
+  if (!std::filesystem::is_regular_file(name)) {
+    throw InputError("--controller '" + name + "': neither paper, tuned, off nor a controller file");
+  }
+  return apply_controller_file(load_controller_file(name), controller_preset(ControllerMode::paper, plant), name);
 }
 
 void run(const SimulateOptions& o) {
   if (!o.out.empty()) prepare_output_dir(o.out, "--out");
   if (!o.plot.empty()) prepare_output_file(o.plot, "--plot");
   if (!o.rate_csv.empty()) prepare_output_file(o.rate_csv, "--rate-csv");
-  const model::ChamberProfile profile = chamber_profile_by_name(o.profile, data_dir());
+  const bool experiment = o.profile == "tune";
+  const tune::ExperimentPlan plan;
+  const model::ChamberProfile profile = experiment ? tune_experiment_room(o.ambient_c, plan)
+                                                   : chamber_profile_by_name(o.profile, data_dir());
   SimulationSetup setup;
   if (!o.plant.empty()) setup.plant = load_plant(o.plant);
   setup.seed = o.seed;
   setup.sample_rate_hz = o.sample_rate_hz;
-  const ControllerMode mode = parse_controller_mode(o.controller);
-  setup.controller = controller_preset(mode, setup.plant);
+  setup.controller = controller_for(experiment ? std::string("paper") : o.controller, setup.plant);
+  tune::IdentificationExperiment program(plan);
+  if (experiment) setup.program = &program;
+  // Refuse a bad output directory before a long run.
+  if (!o.out.empty()) {
+    std::error_code ec;
+    std::filesystem::create_directories(o.out, ec);
+    if (ec) throw RuntimeFailure(o.out + ": cannot create the output directory: " + ec.message());
+  }
 
   std::string calibration_name;
   std::optional<fit::BiasModel> model;
@@ -271,8 +300,17 @@ void run(const SimulateOptions& o) {
     plot_path = o.plot;
   }
   nlohmann::json j = summary_json(o, calibration_name, result, wall_s);
+  if (experiment) {
+    j["experiment"] = {{"ambient_c", o.ambient_c},
+                       {"duration_s", result.rows.empty() ? 0.0 : result.rows.back().time_s},
+                       {"finished", program.phase() == tune::ExperimentPhase::done}};
+  }
   if (!o.out.empty()) {
     csv_path = o.out + "/simulation.csv";
+    if (experiment) {
+      write_board_record_csv(result.rows, o.out + "/record.csv");
+      j["record"] = o.out + "/record.csv";
+    }
     write_records_csv(result.rows, *csv_path);
     std::ofstream summary(o.out + "/summary.json");
     summary << j.dump(2) << "\n";
@@ -308,12 +346,17 @@ void add_simulate_command(CLI::App& app) {
       "ADS1251/AD5060/DS18B20/OPA548 simulators) in virtual time, much faster than real time.");
   cmd->add_option("--profile", options->profile,
                   "chamber profile: fig26 (seed Section 6.2), table2 (-40..80 C in 5 C steps, 60 min "
-                  "soaks, seed Section 4.2) or a CSV file (time_s,ambient_c or the fig26 segment format)")
+                  "soaks, seed Section 4.2), a CSV file (time_s,ambient_c or the fig26 segment format), or "
+                  "tune: the identification experiment of `gyrotc tune` (<= 3 h at --ambient-c; writes "
+                  "record.csv, the board's record, into --out)")
+      ->capture_default_str();
+  cmd->add_option("--ambient-c", options->ambient_c, "--profile tune: the room's (chamber's) constant temperature")
+      ->check(CLI::Range(-40.0, 80.0))
       ->capture_default_str();
   cmd->add_option("--controller", options->controller,
                   "paper: the seed's integral-separated PID; tuned: ours (retuned gains, feed-forward "
-                  "from the ambient sensor); off: TEC off, compensation only")
-      ->check(CLI::IsMember({"paper", "tuned", "off"}))
+                  "from the ambient sensor); off: TEC off, compensation only; or a controller file "
+                  "(TOML) as `gyrotc tune` writes it")
       ->capture_default_str();
   cmd->add_option("--plant", options->plant, "plant description (TOML); default: the documented defaults");
   cmd->add_option("--calibration", options->calibration,

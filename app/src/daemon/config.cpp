@@ -9,100 +9,14 @@
 #include <stdexcept>
 #include <string_view>
 
+#include "gyrotc/app/controller_file.hpp"
 #include "gyrotc/app/errors.hpp"
+#include "gyrotc/app/toml_table.hpp"
 
 namespace gyrotc::app {
 namespace {
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
-
-std::string format_number(double v) {
-  char text[32];
-  std::snprintf(text, sizeof text, "%g", v);
-  return text;
-}
-
-// One daemon table: typed keys, and file, line and key in every error.
-class Table {
- public:
-  Table(const toml::table* table, std::string name, const std::string& source,
-        std::initializer_list<std::string_view> allowed)
-      : table_(table), name_(std::move(name)), source_(source) {
-    if (table_ == nullptr) return;
-    for (auto&& [key, node] : *table_) {
-      if (std::find(allowed.begin(), allowed.end(), key.str()) == allowed.end()) {
-        fail(node, std::string(key.str()), "unknown key in [" + name_ + "]");
-      }
-    }
-  }
-
-  [[noreturn]] void fail(const toml::node& node, const std::string& key, const std::string& why) const {
-    throw InputError(source_ + ":" + std::to_string(node.source().begin.line) + ": " + name_ + "." + key + ": " +
-                     why);
-  }
-  // An error about a key when present, else about the table.
-  [[noreturn]] void fail_at(const std::string& key, const std::string& why) const {
-    const toml::node* node = table_ != nullptr ? table_->get(key) : nullptr;
-    if (node != nullptr) fail(*node, key, why);
-    const int line = table_ != nullptr ? static_cast<int>(table_->source().begin.line) : 0;
-    throw InputError(source_ + (line > 0 ? ":" + std::to_string(line) : std::string()) + ": " + name_ + "." + key +
-                     ": " + why);
-  }
-
-  const toml::node* get(const std::string& key) const { return table_ != nullptr ? table_->get(key) : nullptr; }
-
-  double number(const std::string& key, double fallback, double min, double max) const {
-    const toml::node* node = get(key);
-    if (node == nullptr) return fallback;
-    if (!node->is_number()) fail(*node, key, "expected a number");
-    const double value = *node->value<double>();
-    if (!(value >= min && value <= max)) {
-      fail(*node, key, "must be within " + format_number(min) + " .. " + format_number(max) + ", got " +
-                           format_number(value));
-    }
-    return value;
-  }
-
-  std::int64_t integer(const std::string& key, std::int64_t fallback, std::int64_t min, std::int64_t max) const {
-    const toml::node* node = get(key);
-    if (node == nullptr) return fallback;
-    if (!node->is_integer()) fail(*node, key, "expected an integer");
-    const std::int64_t value = *node->value<std::int64_t>();
-    if (value < min || value > max) {
-      fail(*node, key, "must be within " + std::to_string(min) + " .. " + std::to_string(max) + ", got " +
-                           std::to_string(value));
-    }
-    return value;
-  }
-
-  std::string string(const std::string& key, const std::string& fallback) const {
-    const toml::node* node = get(key);
-    if (node == nullptr) return fallback;
-    if (!node->is_string()) fail(*node, key, "expected a string");
-    return *node->value<std::string>();
-  }
-
-  bool boolean(const std::string& key, bool fallback) const {
-    const toml::node* node = get(key);
-    if (node == nullptr) return fallback;
-    if (!node->is_boolean()) fail(*node, key, "expected true or false");
-    return *node->value<bool>();
-  }
-
- private:
-  const toml::table* table_;
-  std::string name_;
-  const std::string& source_;
-};
-
-const toml::table* section(const toml::table& root, const std::string& name, const std::string& source) {
-  const toml::node* node = root.get(name);
-  if (node == nullptr) return nullptr;
-  if (!node->is_table()) {
-    throw InputError(source + ":" + std::to_string(node->source().begin.line) + ": " + name + ": expected a table");
-  }
-  return node->as_table();
-}
 
 void check_top_level(const toml::table& root, const std::string& source) {
   static constexpr std::string_view kKnown[] = {"hal",     "devices",     "tec",    "sim",     "control",
@@ -116,7 +30,7 @@ void check_top_level(const toml::table& root, const std::string& source) {
   }
 }
 
-FailSafeLimits parse_failsafe(const Table& t) {
+FailSafeLimits parse_failsafe(const TomlTable& t) {
   FailSafeLimits l;
   l.stale_periods = t.number("stale_periods", l.stale_periods, 1.0, 1000.0);
   l.stuck_s = t.number("stuck_s", l.stuck_s, 1.0, 86400.0);
@@ -140,14 +54,25 @@ DaemonConfig parse_daemon_config(const toml::table& root, const std::string& sou
   c.board = parse_board_config(root, source);
   const double limit_a = c.board.devices.tec.current_limit_a;
 
-  const Table failsafe(section(root, "failsafe", source), "failsafe", source,
-                       {"stale_periods", "stuck_s", "stuck_min_drive_a", "stuck_span_a", "recovery_readings",
-                        "over_temp_c", "opa548_cooldown_s", "min_valid_c", "max_valid_c"});
+  const TomlTable failsafe(toml_section(root, "failsafe", source), "failsafe", source,
+                           {"stale_periods", "stuck_s", "stuck_min_drive_a", "stuck_span_a", "recovery_readings",
+                            "over_temp_c", "opa548_cooldown_s", "min_valid_c", "max_valid_c"});
   c.controller.limits = parse_failsafe(failsafe);
 
-  const Table control(section(root, "control", source), "control", source,
-                      {"setpoint_c", "kp", "ki", "kd", "period_s", "xi_c", "out_min_a", "out_max_a", "pid",
-                       "feed_forward_a_per_c", "setpoint_ramp_c_per_s", "rate_out_v_per_dps", "sensor_period_s"});
+  const TomlTable control(toml_section(root, "control", source), "control", source,
+                          {"setpoint_c", "kp", "ki", "kd", "period_s", "xi_c", "out_min_a", "out_max_a", "pid",
+                           "feed_forward_a_per_c", "setpoint_ramp_c_per_s", "rate_out_v_per_dps", "sensor_period_s",
+                           "controller_file"});
+  c.controller_file = control.string("controller_file", "");
+  if (!c.controller_file.empty()) {
+    // The file (gyrotc tune's) sets the controller: the same keys here would be ignored.
+    for (const char* key : {"setpoint_c", "kp", "ki", "kd", "period_s", "xi_c", "feed_forward_a_per_c",
+                            "setpoint_ramp_c_per_s"}) {
+      if (control.get(key) != nullptr) {
+        control.fail_at(key, "set by control.controller_file (\"" + c.controller_file + "\"); give one or the other");
+      }
+    }
+  }
   ControllerConfig& cc = c.controller;
   // The setpoint must be one the casing can hold without tripping a fail-safe.
   cc.setpoint_c = control.number("setpoint_c", cc.setpoint_c, cc.limits.min_valid_c, cc.limits.over_temp_c - 1.0);
@@ -176,10 +101,10 @@ DaemonConfig parse_daemon_config(const toml::table& root, const std::string& sou
     control.fail_at("setpoint_c", e.what());
   }
 
-  const Table calibration(section(root, "calibration", source), "calibration", source, {"file"});
+  const TomlTable calibration(toml_section(root, "calibration", source), "calibration", source, {"file"});
   c.calibration_file = calibration.string("file", "");
 
-  const Table output(section(root, "output", source), "output", source,
+  const TomlTable output(toml_section(root, "output", source), "output", source,
                      {"stream", "path", "baud", "period_s", "record_csv", "status_interval_s", "write_timeout_s"});
   OutputConfig& o = c.output;
   const std::string stream = output.string("stream", "stdout");
@@ -204,12 +129,21 @@ DaemonConfig parse_daemon_config(const toml::table& root, const std::string& sou
   o.status_interval_s = output.number("status_interval_s", o.status_interval_s, 0.0, 86400.0);
   o.write_timeout_s = output.number("write_timeout_s", o.write_timeout_s, 0.0, 10.0);
 
-  const Table realtime(section(root, "realtime", source), "realtime", source, {"priority", "cpu", "lock_memory"});
+  const TomlTable realtime(toml_section(root, "realtime", source), "realtime", source, {"priority", "cpu", "lock_memory"});
   c.realtime.priority = static_cast<int>(realtime.integer("priority", c.realtime.priority, 1, 99));
   const std::int64_t cpu = realtime.integer("cpu", -1, -1, 1023);
   if (cpu >= 0) c.realtime.cpu = static_cast<int>(cpu);
   c.realtime.lock_memory = realtime.boolean("lock_memory", true);
   return c;
+}
+
+void use_controller_file(DaemonConfig& config, const std::string& path) {
+  config.controller = apply_controller_file(load_controller_file(path), config.controller, path);
+  config.controller_file = path;
+  if (config.sensor_period_s > config.controller.pid.period_s) {
+    throw InputError(path + ": control.period_s " + format_toml_number(config.controller.pid.period_s) +
+                     " is shorter than the configuration's sensor_period_s (a fresh reading every PID period)");
+  }
 }
 
 DaemonConfig load_daemon_config(const std::string& path) {
@@ -223,6 +157,11 @@ DaemonConfig load_daemon_config(const std::string& path) {
   DaemonConfig c = parse_daemon_config(root, path);
   if (!c.calibration_file.empty() && std::filesystem::path(c.calibration_file).is_relative()) {
     c.calibration_file = (std::filesystem::path(path).parent_path() / c.calibration_file).lexically_normal().string();
+  }
+  if (!c.controller_file.empty()) {
+    std::filesystem::path file(c.controller_file);
+    if (file.is_relative()) file = (std::filesystem::path(path).parent_path() / file).lexically_normal();
+    use_controller_file(c, file.string());
   }
   return c;
 }

@@ -29,7 +29,7 @@ void RealtimeRunner::prime() noexcept {
   end_s_ = options_.duration_s > 0.0 ? start_s_ + options_.duration_s : std::numeric_limits<double>::infinity();
   next_pid_s_ = start_s_ + controller_.config().pid.period_s;
   next_row_s_ = start_s_ + options_.output_period_s;
-  last_sample_s_ = -1.0;
+  publish_status();
 }
 
 void RealtimeRunner::start() {
@@ -70,23 +70,16 @@ bool RealtimeRunner::step() noexcept {
   double now = board_.clock.now_s();
   if (sample.ok()) {
     latency_.add(now - sample->time_s);
-    if (last_sample_s_ >= 0.0) {
-      // Conversions the loop did not see: DRDY edges missed while it was late.
-      const double gap = (sample->time_s - last_sample_s_) / options_.sample_period_s;
-      if (gap > 1.5) {
-        missed_drdy_.store(missed_drdy_.load(std::memory_order_relaxed) +
-                               static_cast<std::uint64_t>(std::lround(gap) - 1),
-                           std::memory_order_relaxed);
-      }
-    }
-    last_sample_s_ = sample->time_s;
     (void)run_sample_tick(controller_, board_.rate_dac, *sample, now, row_sums_);
     samples_.store(samples_.load(std::memory_order_relaxed) + 1, std::memory_order_relaxed);
   } else {
     run_adc_timeout_tick(controller_, board_.rate_dac, now, row_sums_);
     adc_timeouts_.store(adc_timeouts_.load(std::memory_order_relaxed) + 1, std::memory_order_relaxed);
-    missed_drdy_.store(missed_drdy_.load(std::memory_order_relaxed) + 1, std::memory_order_relaxed);
   }
+  const hal::AdcReadStats adc = board_.adc.stats();
+  late_reads_.store(adc.late_reads, std::memory_order_relaxed);
+  spurious_edges_.store(adc.spurious_edges, std::memory_order_relaxed);
+  missed_conversions_.store(adc.missed_conversions, std::memory_order_relaxed);
 
   // A new reading from the sensor thread: one attempt, never spin behind it.
   Readings readings;
@@ -100,6 +93,7 @@ bool RealtimeRunner::step() noexcept {
       if (readings.ambient.valid) ambient_c_ = readings.ambient.temp_c;
     }
     readings_count_.store(readings_count_.load(std::memory_order_relaxed) + 1, std::memory_order_relaxed);
+    publish_status();
   }
 
   if (now >= next_pid_s_) {
@@ -107,10 +101,12 @@ bool RealtimeRunner::step() noexcept {
     row_sums_.flags |= command.flags;
     pid_ticks_.store(pid_ticks_.load(std::memory_order_relaxed) + 1, std::memory_order_relaxed);
     while (next_pid_s_ <= now) next_pid_s_ += controller_.config().pid.period_s;
+    publish_status();
   }
 
   if (now >= next_row_s_) {
     push_row(now);
+    publish_status();
     while (next_row_s_ <= now) next_row_s_ += options_.output_period_s;
   }
 
@@ -138,6 +134,14 @@ void RealtimeRunner::push_row(double now_s) noexcept {
   row.have_casing = have_casing_;
   (void)ring_.try_push(row);  // full: dropped and counted by the ring
   row_sums_ = RowAccumulator{};
+}
+
+void RealtimeRunner::publish_status() noexcept {
+  const TecCommand& command = controller_.last_command();
+  status_.store(LoopStatus{.casing_c = have_casing_ ? controller_.last_casing_c() : kNaN,
+                           .setpoint_c = controller_.active_setpoint_c(),
+                           .tec_a = command.enable ? command.current_a : 0.0,
+                           .flags = controller_.flags()});
 }
 
 void RealtimeRunner::publish_readings(const hal::TemperatureReading& casing,
@@ -188,24 +192,28 @@ void RealtimeRunner::stop() noexcept {
   request_stop();
   if (loop_thread_) loop_thread_->join();
   finished_.store(true, std::memory_order_release);
+  // The loop thread has ended: this thread may touch the board now, and does
+  // before waiting for a sensor thread that may sit in a 750 ms conversion.
+  (void)board_.tec.safe_off();
+  (void)board_.rate_dac.write_v(mid_v_);
   threads_stop_.store(true, std::memory_order_relaxed);
   if (sensor_thread_.joinable()) sensor_thread_.join();
   if (output_thread_.joinable()) output_thread_.join();
   try {
     if (started_) drain();
-  } catch (...) {  // a sink failed while draining: the safe state matters more
+  } catch (...) {  // a sink failed while draining: the board is safe already
   }
-  // The loop thread has ended: this thread may touch the board now.
-  (void)board_.tec.safe_off();
-  (void)board_.rate_dac.write_v(mid_v_);
 }
 
 LoopCounters RealtimeRunner::counters() const noexcept {
   LoopCounters c;
   c.samples = samples_.load(std::memory_order_relaxed);
   c.overruns = overruns_.load(std::memory_order_relaxed);
-  c.missed_drdy = missed_drdy_.load(std::memory_order_relaxed);
   c.adc_timeouts = adc_timeouts_.load(std::memory_order_relaxed);
+  c.late_reads = late_reads_.load(std::memory_order_relaxed);
+  c.spurious_edges = spurious_edges_.load(std::memory_order_relaxed);
+  c.missed_conversions = missed_conversions_.load(std::memory_order_relaxed);
+  c.missed_drdy = c.missed_conversions + c.adc_timeouts;
   c.pid_ticks = pid_ticks_.load(std::memory_order_relaxed);
   c.readings = readings_count_.load(std::memory_order_relaxed);
   c.rows_dropped = ring_.dropped();

@@ -1,5 +1,6 @@
 #include "gyrotc/app/daemon/session.hpp"
 
+#include <algorithm>
 #include <chrono>
 #include <cinttypes>
 #include <cmath>
@@ -12,6 +13,7 @@
 #include <nlohmann/json.hpp>
 
 #include "gyrotc/algorithms/fit/compensator.hpp"
+#include "gyrotc/algorithms/tune/experiment.hpp"
 #include "gyrotc/app/calibration_in_use.hpp"
 #include "gyrotc/app/daemon/kernel_rt.hpp"
 #include "gyrotc/app/daemon/line_sink.hpp"
@@ -22,6 +24,7 @@
 #include "gyrotc/app/errors.hpp"
 #include "gyrotc/app/output_path.hpp"
 #include "gyrotc/hal/chips/ads1251.hpp"
+#include "gyrotc/hal/linux/gpio_persistence.hpp"
 
 namespace gyrotc::app {
 namespace {
@@ -62,16 +65,34 @@ class SafeOffGuard {
 }  // namespace
 
 void safe_off_board(const DaemonConfig& config) {
-  BoardInstance instance = make_board(config.board, SimTiming::lockstep);
-  hal::Board board = instance.board();
-  const hal::Status tec = board.tec.safe_off();
-  (void)board.rate_dac.write_v(0.5 * config.controller.rate_dac_vref_v);
-  if (!tec.ok()) throw RuntimeFailure("safe-off: the TEC stage did not accept 0 A / disable");
+  if (config.board.hal == HalKind::sim) {
+    BoardInstance instance = make_board(config.board, SimTiming::lockstep);
+    hal::Board board = instance.board();
+    const hal::Status tec = board.tec.safe_off();
+    (void)board.rate_dac.write_v(0.5 * config.controller.rate_dac_vref_v);
+    if (!tec.ok()) throw RuntimeFailure("safe-off: the TEC stage did not accept 0 A / disable");
+    return;
+  }
+  const hal::SafeOffReport report = hal::LinuxBoard::safe_off(config.board.devices);
+  if (!report.rate_dac.ok()) {
+    GYROTC_LOG_WARNING("safe-off: the rate DAC is not at mid-scale: %.*s",
+                       static_cast<int>(report.rate_dac.error().message().size()),
+                       report.rate_dac.error().message().data());
+  }
+  if (!report.tec_safe()) {
+    const auto what = [](const hal::Status& s) { return s.ok() ? std::string("ok") : std::string(s.error().message()); };
+    throw RuntimeFailure("safe-off: the TEC is not known to be safe: TEC DAC: " + what(report.tec_dac) +
+                         "; OPA548 E/S: " + what(report.opa548));
+  }
 }
 
 void run_session(const SessionOptions& options) {
   DaemonConfig config = load_daemon_config(options.config_path);
+  if (!options.controller_file.empty()) use_controller_file(config, options.controller_file);
   if (options.pid) config.controller.pid_enabled = *options.pid;
+  if (options.tune_experiment && !config.controller.pid_enabled) {
+    throw InputError("the identification experiment drives the TEC: it cannot run with the PID (TEC) off");
+  }
   if (!options.record_csv.empty()) config.output.record_csv = options.record_csv;
   config.realtime.allow_non_rt = options.allow_non_rt;
 
@@ -83,6 +104,8 @@ void run_session(const SessionOptions& options) {
   const std::string calibration_text = describe(calibration);
   compensators.push_back(make_compensator(std::move(calibration)));
   Controller controller(config.controller, *compensators.back());
+  tune::IdentificationExperiment experiment;
+  if (options.tune_experiment) controller.run_program(&experiment);
 
   // Output files before any device: a bad path fails without touching the board.
   if (!options.summary_json.empty()) prepare_output_file(options.summary_json, "--summary-json");
@@ -100,10 +123,23 @@ void run_session(const SessionOptions& options) {
   BoardInstance instance = make_board(config.board, SimTiming::realtime);
   hal::Board board = instance.board();
   SafeOffGuard guard(board.tec);
+  if (!board.tec.senses_thermal()) {
+    GYROTC_LOG_WARNING("OPA548 thermal state unknown: no E/S sense line ([devices.opa548] es_sense), so a thermal "
+                       "shutdown cannot be seen and is not reported");
+  }
+  if (config.board.hal == HalKind::linux_devices && hal::gpio_outputs_persist().value_or(false)) {
+    GYROTC_LOG_WARNING("this kernel keeps released GPIO outputs driving (%s = Y): if gyrotc dies outside systemd, "
+                       "E/S stays where it was; set dtparam=strict_gpiod (docs/BOARD-rpi4.md)",
+                       hal::kPersistGpioOutputsPath);
+  }
 
   RealtimeRunnerOptions ro;
   ro.realtime = config.realtime;
   ro.duration_s = options.duration_s;
+  if (options.tune_experiment) {
+    const double bound_s = experiment.plan().max_duration_s() + 60.0;
+    ro.duration_s = ro.duration_s > 0.0 ? std::min(ro.duration_s, bound_s) : bound_s;
+  }
   ro.sample_period_s = hal::Ads1251::kClocksPerSample / config.board.devices.adc.fclk_hz;
   ro.output_period_s = config.output.period_s;
   ro.sensor_period_s = config.sensor_period_s;
@@ -144,8 +180,14 @@ void run_session(const SessionOptions& options) {
   GYROTC_LOG_NOTICE("running on %s (%s): %s, memory %s, PID %s, calibration %s",
                     config.board.hal == HalKind::sim ? "the simulated board" : "the board", config.source.c_str(),
                     runner.is_realtime() ? "SCHED_FIFO" : "normal scheduler (--allow-non-rt)",
-                    runner.memory_locked() ? "locked" : "not locked", config.controller.pid_enabled ? "on" : "off",
+                    runner.memory_locked() ? "locked" : "not locked",
+                    options.tune_experiment ? "replaced by the identification experiment"
+                                            : (config.controller.pid_enabled ? "on" : "off"),
                     calibration_text.c_str());
+  if (options.tune_experiment) {
+    GYROTC_LOG_NOTICE("identification experiment: at most %.0f s; then `gyrotc tune --data %s --out controller.toml`",
+                      experiment.plan().max_duration_s(), config.output.record_csv.c_str());
+  }
 
   using clock = std::chrono::steady_clock;
   const auto started = clock::now();
@@ -155,7 +197,7 @@ void run_session(const SessionOptions& options) {
   auto next_watchdog = started;
   std::uint64_t last_heartbeat = 0;
   int stop_signal = 0;
-  while (!runner.finished()) {
+  while (!runner.finished() && !controller.program_finished()) {
     const DaemonSignals::Event event = signals.wait(0.1);
     if (event == DaemonSignals::Event::stop) {
       stop_signal = signals.last_signal();
@@ -189,14 +231,17 @@ void run_session(const SessionOptions& options) {
     }
     if (config.output.status_interval_s > 0.0 && now >= next_status) {
       const LoopCounters c = runner.counters();
+      const LoopStatus st = runner.status();
       const LatencyHistogram::Summary l = runner.latency();
-      char text[320];
+      char text[400];
       std::snprintf(text, sizeof text,
                     "status: %" PRIu64 " samples, casing %.3f C (setpoint %.2f), TEC %.3f A, flags 0x%x, "
-                    "overruns %" PRIu64 ", missed DRDY %" PRIu64 ", latency us min %.0f avg %.1f p99 %s%.0f max %.0f",
-                    c.samples, controller.last_casing_c(), controller.active_setpoint_c(),
-                    controller.last_command().current_a, controller.flags(), c.overruns, c.missed_drdy, us(l.min_s),
-                    us(l.avg_s), l.p99_over ? ">" : "", us(l.p99_s), us(l.max_s));
+                    "overruns %" PRIu64 ", missed conversions %" PRIu64 ", late reads %" PRIu64
+                    ", spurious edges %" PRIu64 ", DRDY timeouts %" PRIu64
+                    ", latency us min %.0f avg %.1f p99 %s%.0f max %.0f",
+                    c.samples, st.casing_c, st.setpoint_c, st.tec_a, st.flags, c.overruns, c.missed_conversions,
+                    c.late_reads, c.spurious_edges, c.adc_timeouts, us(l.min_s), us(l.avg_s), l.p99_over ? ">" : "",
+                    us(l.p99_s), us(l.max_s));
       GYROTC_LOG_INFO("%s", text);
       notify.status(text);
       next_status += std::chrono::duration_cast<clock::duration>(
@@ -211,13 +256,24 @@ void run_session(const SessionOptions& options) {
 
   const LoopCounters c = runner.counters();
   const LatencyHistogram::Summary l = runner.latency();
-  GYROTC_LOG_NOTICE("%s after %.1f s: TEC at 0 A, OPA548 disabled (safe-off)",
-                    stop_signal != 0 ? (stop_signal == SIGINT ? "SIGINT" : "SIGTERM") : "duration reached", elapsed_s);
+  const char* stopped_by = stop_signal != 0 ? (stop_signal == SIGINT ? "SIGINT" : "SIGTERM")
+                           : controller.program_finished() ? "experiment finished"
+                                                           : "duration reached";
+  GYROTC_LOG_NOTICE("%s after %.1f s: TEC at 0 A, OPA548 disabled (safe-off)", stopped_by, elapsed_s);
   GYROTC_LOG_NOTICE("summary: %" PRIu64 " samples, %" PRIu64 " PID ticks, %" PRIu64 " readings, overruns %" PRIu64
-                    ", missed DRDY %" PRIu64 ", rows dropped %" PRIu64
+                    ", missed conversions %" PRIu64 ", late reads %" PRIu64 ", spurious edges %" PRIu64
+                    ", DRDY timeouts %" PRIu64 ", rows dropped %" PRIu64
                     "; latency us min %.1f avg %.1f p50 %.0f p99 %s%.0f max %.1f",
-                    c.samples, c.pid_ticks, c.readings, c.overruns, c.missed_drdy, c.rows_dropped, us(l.min_s),
-                    us(l.avg_s), us(l.p50_s), l.p99_over ? ">" : "", us(l.p99_s), us(l.max_s));
+                    c.samples, c.pid_ticks, c.readings, c.overruns, c.missed_conversions, c.late_reads,
+                    c.spurious_edges, c.adc_timeouts, c.rows_dropped, us(l.min_s), us(l.avg_s), us(l.p50_s),
+                    l.p99_over ? ">" : "", us(l.p99_s), us(l.max_s));
+  if (instance.sim_board) {
+    const hal::SimBoard& sim = *instance.sim_board;
+    GYROTC_LOG_NOTICE("simulated ADS1251: %" PRIu64 " transfers, %" PRIu64 " corrupted (late or early); samples "
+                      "accepted %" PRIu64 ", of them corrupted %" PRIu64,
+                      sim.adc_chip().counters().reads, sim.adc_chip().counters().corrupted_reads,
+                      sim.accepted_samples(), sim.accepted_corrupted_samples());
+  }
   std::uint64_t lines_dropped = 0;
   for (const LineSink* sink : {stream.get(), record.get()}) {
     if (sink == nullptr) continue;
@@ -230,13 +286,16 @@ void run_session(const SessionOptions& options) {
     j["config"] = config.source;
     j["hal"] = config.board.hal == HalKind::sim ? "sim" : "linux";
     j["elapsed_s"] = elapsed_s;
-    j["stopped_by"] = stop_signal == 0 ? "duration" : (stop_signal == SIGINT ? "SIGINT" : "SIGTERM");
+    j["stopped_by"] = std::string(stopped_by) == "duration reached" ? "duration" : stopped_by;
     j["realtime"] = runner.is_realtime();
     j["memory_locked"] = runner.memory_locked();
     j["samples"] = c.samples;
     j["overruns"] = c.overruns;
     j["missed_drdy"] = c.missed_drdy;
     j["adc_timeouts"] = c.adc_timeouts;
+    j["missed_conversions"] = c.missed_conversions;
+    j["late_reads"] = c.late_reads;
+    j["spurious_edges"] = c.spurious_edges;
     j["pid_ticks"] = c.pid_ticks;
     j["readings"] = c.readings;
     j["rows_dropped"] = c.rows_dropped;
@@ -251,6 +310,14 @@ void run_session(const SessionOptions& options) {
       j["final_state"] = {{"tec_current_a", (sim.tec_dac_chip().output_v() - 0.5 * config.board.devices.tec_dac.vref_v) *
                                                 tec.gain_a_per_v},
                           {"opa548_enabled", sim.opa548_chip().output_enabled()}};
+      // What the simulated ADS1251 saw, against what the driver reported.
+      const hal::SimAds1251::Counters adc = sim.adc_chip().counters();
+      j["sim_adc"] = {{"conversions", adc.conversions},
+                      {"transfers", adc.reads},
+                      {"corrupted_transfers", adc.corrupted_reads},
+                      {"dropped_events", adc.dropped_events},
+                      {"accepted_samples", sim.accepted_samples()},
+                      {"accepted_corrupted_samples", sim.accepted_corrupted_samples()}};
     }
     std::ofstream out(options.summary_json);
     out << j.dump(2) << '\n';

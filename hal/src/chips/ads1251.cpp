@@ -1,11 +1,24 @@
 #include "gyrotc/hal/chips/ads1251.hpp"
 
+#include <algorithm>
 #include <array>
+#include <cmath>
+#include <limits>
 
 namespace gyrotc::hal {
 
-Ads1251::Ads1251(SpiBus& spi, GpioLine& drdy, const Ads1251Config& config) noexcept
-    : spi_(spi), drdy_(drdy), config_(config), mv_per_code_(config.vref_v * 1000.0 / 8388608.0) {}
+Ads1251::Ads1251(SpiBus& spi, GpioLine& drdy, Clock& clock, const Ads1251Config& config) noexcept
+    : spi_(spi),
+      drdy_(drdy),
+      clock_(clock),
+      config_(config),
+      mv_per_code_(config.vref_v * 1000.0 / 8388608.0),
+      period_s_(kClocksPerSample / config.fclk_hz),
+      window_s_(kDoutWindowClocks / config.fclk_hz),
+      hold_off_s_(kHoldOffClocks / config.fclk_hz + kHoldOffExtraS),
+      next_drdy_after_s_(kNextDrdyClocks / config.fclk_hz),
+      msb_tolerance_s_(kMsbToleranceClocks / config.fclk_hz),
+      transfer_s_(24.0 / config.spi_speed_hz) {}
 
 Status Ads1251::validate(const Ads1251Config& config) noexcept {
   if (!(config.fclk_hz > 0.0) || !(config.vref_v > 0.0) || config.spi_speed_hz == 0 ||
@@ -38,18 +51,65 @@ std::int32_t Ads1251::sign_extend_24(std::uint32_t raw) noexcept {
 }
 
 Result<AdcSample> Ads1251::do_read(double timeout_s) noexcept {
-  const Result<double> edge = drdy_.wait_edge(Edge::falling, timeout_s);
-  if (!edge) return edge.error();
-  static constexpr std::array<std::uint8_t, 3> kZeros{};
-  std::array<std::uint8_t, 3> rx{};
-  if (Status s = spi_.transfer(kZeros, rx); !s) return s.error();
-  AdcSample sample;
-  sample.code = sign_extend_24(static_cast<std::uint32_t>(rx[0]) << 16 |
-                               static_cast<std::uint32_t>(rx[1]) << 8 | rx[2]);
-  sample.clipped = sample.code >= kCodeMax || sample.code <= kCodeMin;
-  sample.gyro_mv = code_to_mv(sample.code);
-  sample.time_s = *edge;
-  return sample;
+  const double deadline_s = clock_.now_s() + timeout_s;
+  for (;;) {
+    const Result<double> edge = drdy_.wait_edge(Edge::falling, std::max(deadline_s - clock_.now_s(), 0.0));
+    if (!edge) return edge.error();
+    const double edge_s = *edge;
+    const double since_s = have_edge_ ? edge_s - last_edge_s_ : std::numeric_limits<double>::infinity();
+    const bool during_transfer = edge_s <= last_transfer_end_s_;
+    if (since_s < 0.5 * period_s_) {
+      // The MSB 12 tCLK after the DRDY edge and our read's data bits are
+      // the pin's own; anything else there is noise on the line.
+      if (!during_transfer && std::fabs(since_s - hold_off_s_) > msb_tolerance_s_) ++stats_.spurious_edges;
+      continue;
+    }
+    if (during_transfer && since_s < next_drdy_after_s_) continue;  // data bits of a read late in the window
+    if (have_read_ && have_edge_) {
+      const auto periods = static_cast<std::uint64_t>(since_s / period_s_ + 0.5);  // since_s > 0
+      if (periods > 1) stats_.missed_conversions += periods - 1;
+    }
+    have_edge_ = true;
+    last_edge_s_ = edge_s;
+    if (during_transfer) {
+      // The next DRDY fell while a (late) read still clocked: SCLKs inside
+      // its pulse have moved its shift pointer.
+      if (have_read_) ++stats_.missed_conversions;
+      continue;
+    }
+
+    double now_s = clock_.now_s();
+    if (now_s < edge_s + hold_off_s_) {
+      clock_.sleep_until(edge_s + hold_off_s_);
+      now_s = clock_.now_s();
+    }
+    if (now_s + transfer_s_ > edge_s + window_s_) {
+      if (have_read_) ++stats_.missed_conversions;  // woken too late: clocking now would read a mix
+      continue;
+    }
+    static constexpr std::array<std::uint8_t, 3> kZeros{};
+    std::array<std::uint8_t, 3> rx{};
+    const Status transfer = spi_.transfer(kZeros, rx);
+    last_transfer_end_s_ = clock_.now_s();
+    if (last_transfer_end_s_ > edge_s + window_s_) {
+      // Mixed data. No drain: the next DRDY edge may be queued already, and
+      // must be seen to skip the conversion whose pulse these SCLKs hit.
+      ++stats_.late_reads;
+      if (!transfer) return transfer.error();
+      continue;
+    }
+    // The data bits' own edges; any arriving later fall before last_transfer_end_s_.
+    (void)drdy_.discard_edges();
+    if (!transfer) return transfer.error();
+    AdcSample sample;
+    sample.code = sign_extend_24(static_cast<std::uint32_t>(rx[0]) << 16 |
+                                 static_cast<std::uint32_t>(rx[1]) << 8 | rx[2]);
+    sample.clipped = sample.code >= kCodeMax || sample.code <= kCodeMin;
+    sample.gyro_mv = code_to_mv(sample.code);
+    sample.time_s = edge_s;
+    have_read_ = true;
+    return sample;
+  }
 }
 
 }  // namespace gyrotc::hal

@@ -119,6 +119,9 @@ TemperatureReading Ds18b20::evaluate(std::string_view text, double time_s) noexc
     return failed(TempFault::all_zero, time_s);
   }
   if (!slave->kernel_crc_ok || crc8_maxim(pad) != 0) return failed(TempFault::crc, time_s);
+  // Configuration register R1 R0 (bits 6..5): 9 + R bits; the 750 ms
+  // conversion and the loop's 1/16 C steps are those of 12 bits.
+  if (9 + ((pad[4] >> 5) & 3) != kResolutionBits) return failed(TempFault::resolution, time_s);
   return accept(slave->t_milli_c, time_s);
 }
 
@@ -146,10 +149,24 @@ TemperatureReading Ds18b20::do_read() {
   std::array<char, 256> buffer{};
   const Result<std::size_t> n = device_.read(options_.source, buffer);
   if (!n) {
-    return failed(n.error().code() == ErrorCode::not_found ? TempFault::missing_device : TempFault::io_error,
-                  start_s);
+    resolution_checked_ = false;  // a device that comes back may be another part
+    switch (n.error().code()) {
+      case ErrorCode::not_found: return failed(TempFault::missing_device, start_s);
+      case ErrorCode::invalid_config: return failed(TempFault::ambiguous, start_s);
+      default: return failed(TempFault::io_error, start_s);
+    }
   }
-  return evaluate(std::string_view(buffer.data(), *n), start_s);
+  const TemperatureReading reading = evaluate(std::string_view(buffer.data(), *n), start_s);
+  if (options_.source == W1File::temperature && reading.valid && !resolution_checked_) {
+    // The temperature file has no scratchpad: ask w1_therm (Linux >= 5.10;
+    // without the file there is nothing to check).
+    if (const Result<std::size_t> r = device_.read(W1File::resolution, buffer)) {
+      const Result<std::int32_t> bits = parse_temperature_file(std::string_view(buffer.data(), *r));  // one integer
+      if (bits && *bits != kResolutionBits) return failed(TempFault::resolution, start_s, reading.temp_c);
+    }
+    resolution_checked_ = true;
+  }
+  return reading;
 }
 
 }  // namespace gyrotc::hal

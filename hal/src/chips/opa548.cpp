@@ -10,11 +10,20 @@ Status Opa548::enable(bool on) noexcept {
   return s;
 }
 
-Result<bool> Opa548::thermal_flag() noexcept {
-  if (!enabled_) return false;  // E/S is held low by us: no information
-  Result<bool> level = sense_ != nullptr ? sense_->get() : drive_.get();
+Result<ThermalStatus> Opa548::thermal_status() noexcept {
+  if (sense_ == nullptr || !enabled_) return ThermalStatus::unknown;
+  const Result<bool> level = sense_->get();
   if (!level) return level.error();
-  return !*level;
+  return *level ? ThermalStatus::clear : ThermalStatus::shutdown;
+}
+
+std::string_view to_string(ThermalStatus status) noexcept {
+  switch (status) {
+    case ThermalStatus::clear: return "clear";
+    case ThermalStatus::shutdown: return "thermal shutdown";
+    case ThermalStatus::unknown: return "unknown";
+  }
+  return "unknown";
 }
 
 }  // namespace gyrotc::hal

@@ -19,7 +19,7 @@ Status TecStage::do_set_current_a(double current_a) noexcept {
 
 Status TecStage::do_enable(bool on) noexcept { return amplifier_.enable(on); }
 
-Result<bool> TecStage::do_thermal_flag() noexcept { return amplifier_.thermal_flag(); }
+Result<ThermalStatus> TecStage::do_thermal_status() noexcept { return amplifier_.thermal_status(); }
 
 Status TecStage::do_safe_off() noexcept {
   const Status dac = do_set_current_a(0.0);

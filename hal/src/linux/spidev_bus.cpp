@@ -1,5 +1,7 @@
 #include "gyrotc/hal/linux/spidev_bus.hpp"
 
+#include "gyrotc/hal/linux/device_lock.hpp"
+
 #include <fcntl.h>
 #include <linux/spi/spidev.h>
 #include <sys/ioctl.h>
@@ -13,6 +15,10 @@ namespace gyrotc::hal {
 Result<std::unique_ptr<SpidevBus>> SpidevBus::open(const std::string& path) noexcept {
   const int fd = ::open(path.c_str(), O_RDWR | O_CLOEXEC);
   if (fd < 0) return Error::from_errno(errno, "cannot open spidev", path);
+  if (Status locked = lock_device(fd, path); !locked) {
+    ::close(fd);
+    return locked.error();
+  }
   return std::unique_ptr<SpidevBus>(new SpidevBus(path, fd));
 }
 

@@ -8,6 +8,13 @@ namespace gyrotc::hal {
 namespace {
 constexpr const char* kCasingId = "28-00000000ca51";   // simulated w1 ids
 constexpr const char* kAmbientId = "28-00000000a4b1";
+
+SimAds1251::Config adc_chip_config(const SimBoardOptions& options, std::uint64_t seed) {
+  SimAds1251::Config config{.fclk_hz = options.adc.fclk_hz, .vref_v = options.adc.vref_v,
+                            .request = SimAds1251::EdgeRequest::falling, .timing = options.adc_timing};
+  config.timing.seed ^= seed * 0x9E3779B97F4A7C15ULL + 0xADC;  // its own stream, not the plant's
+  return config;
+}
 }  // namespace
 
 SimBoard::SimBoard(const model::PlantParams& params, std::uint64_t seed, const SimBoardOptions& options)
@@ -16,16 +23,17 @@ SimBoard::SimBoard(const model::PlantParams& params, std::uint64_t seed, const S
       ambient_c_(plant_.ambient_c()),
       next_step_s_(options.thermal_step_s),
       clock_(options.realtime ? static_cast<Clock&>(realtime_clock_) : static_cast<Clock&>(virtual_clock_)),
-      adc_chip_(*this, clock_, {.fclk_hz = options.adc.fclk_hz, .vref_v = options.adc.vref_v}),
+      adc_chip_(*this, clock_, adc_chip_config(options, seed)),
       rate_dac_chip_("sim:ad5060-rate", options.rate_dac.vref_v),
       tec_dac_chip_("sim:ad5060-tec", params.dac_vref_v, this),
       opa548_chip_(this),
       casing_chip_(kCasingId, plant_.sensor_c(), options.realtime ? &sensor_sleep_clock_ : nullptr),
       ambient_chip_(kAmbientId, plant_.ambient_c(), options.realtime ? &sensor_sleep_clock_ : nullptr),
-      adc_(adc_chip_.spi(), adc_chip_.drdy(), options.adc),
+      adc_(adc_chip_.spi(), adc_chip_.drdy(), clock_, options.adc),
+      checked_adc_(adc_, adc_chip_),
       rate_dac_(rate_dac_chip_, options.rate_dac),
       tec_dac_(tec_dac_chip_, {.vref_v = params.dac_vref_v}),
-      opa548_(opa548_chip_.es_drive(), &opa548_chip_.es_sense()),
+      opa548_(opa548_chip_.es_drive(), options.opa548_sense ? &opa548_chip_.es_sense() : nullptr),
       tec_(tec_dac_, opa548_, {.gain_a_per_v = params.gain_a_per_v, .current_limit_a = options.tec_current_limit_a}),
       casing_(casing_chip_, clock_, options.sensor),
       ambient_(ambient_chip_, clock_, options.sensor) {
@@ -45,7 +53,19 @@ SimBoard::SimBoard(const model::PlantParams& params, std::uint64_t seed, const S
 SimBoard::~SimBoard() { (void)tec_.safe_off(); }
 
 Board SimBoard::board() noexcept {
-  return {adc_, casing_, options_.ambient_sensor ? &ambient_ : nullptr, rate_dac_, tec_, clock_};
+  return {checked_adc_, casing_, options_.ambient_sensor ? &ambient_ : nullptr, rate_dac_, tec_, clock_};
+}
+
+Result<AdcSample> SimBoard::CheckedAdc::do_read(double timeout_s) noexcept {
+  Result<AdcSample> sample = driver_.read(timeout_s);
+  if (!sample) return sample;
+  const auto k = static_cast<std::int64_t>(sample->time_s / chip_.sample_period_s() + 0.5);  // stamps are > 0
+  const std::optional<std::int32_t> truth = chip_.code_of_conversion(k);
+  accepted_.store(accepted_.load(std::memory_order_relaxed) + 1, std::memory_order_relaxed);
+  if (!truth || *truth != sample->code) {
+    corrupted_.store(corrupted_.load(std::memory_order_relaxed) + 1, std::memory_order_relaxed);
+  }
+  return sample;
 }
 
 void SimBoard::advance_to(double t_s) noexcept {

@@ -19,15 +19,18 @@ void SimDs18b20::set_fault(SimTempFault fault) noexcept {
   fault_.store(fault, std::memory_order_relaxed);
 }
 
-std::array<std::uint8_t, 9> SimDs18b20::scratchpad_for(double temp_c) noexcept {
-  // 12-bit resolution: two's complement in 1/16 C, clamped to the part's
-  // -55..+125 C range (datasheet).
-  const double steps = std::clamp(std::nearbyint(temp_c * 16.0), -55.0 * 16.0, 125.0 * 16.0);
+std::array<std::uint8_t, 9> SimDs18b20::scratchpad_for(double temp_c, int resolution_bits) noexcept {
+  // Two's complement in 1/16 C, clamped to the part's -55..+125 C range; at
+  // fewer than 12 bits the low bits are undefined (datasheet), here 0.
+  const double step = std::ldexp(1.0, 12 - resolution_bits);  // in 1/16 C
+  const double steps =
+      std::clamp(std::nearbyint(temp_c * 16.0 / step) * step, -55.0 * 16.0, 125.0 * 16.0);
   const auto raw = static_cast<std::uint16_t>(static_cast<std::int16_t>(steps));
-  // TH, TL (user bytes, power-on 0x4B 0x46), config 0x7F (12 bit), reserved
-  // 0xFF, 0x0C, 0x10 as read from real parts.
+  // TH, TL (user bytes, power-on 0x4B 0x46), config (R1 R0 in bits 6..5:
+  // 0x7F = 12 bit), reserved 0xFF, 0x0C, 0x10 as read from real parts.
+  const auto config = static_cast<std::uint8_t>(0x1F | (resolution_bits - 9) << 5);
   std::array<std::uint8_t, 9> pad{static_cast<std::uint8_t>(raw & 0xFFu), static_cast<std::uint8_t>(raw >> 8),
-                                  0x4B, 0x46, 0x7F, 0xFF, 0x0C, 0x10, 0};
+                                  0x4B, 0x46, config, 0xFF, 0x0C, 0x10, 0};
   pad[8] = crc8_maxim(std::span<const std::uint8_t>(pad.data(), 8));
   return pad;
 }
@@ -37,7 +40,9 @@ std::size_t SimDs18b20::render(W1File file, const std::array<std::uint8_t, 9>& p
   // w1_therm: t = (s16)(MSB << 8 | LSB) * 1000 / 16 in integer arithmetic.
   const int t_milli = static_cast<std::int16_t>(pad[1] << 8 | pad[0]) * 1000 / 16;
   int n = 0;
-  if (file == W1File::temperature) {
+  if (file == W1File::resolution) {
+    n = std::snprintf(out.data(), out.size(), "%d\n", 9 + ((pad[4] >> 5) & 3));
+  } else if (file == W1File::temperature) {
     n = std::snprintf(out.data(), out.size(), "%d\n", t_milli);
   } else {
     n = std::snprintf(out.data(), out.size(),
@@ -67,6 +72,7 @@ bool SimDs18b20::current_pad(std::array<std::uint8_t, 9>& pad, bool consume) noe
       }
       return true;
     case SimTempFault::all_zero: pad = {}; return true;
+    case SimTempFault::low_resolution: pad = scratchpad_for(temperature_c(), 9); return true;
   }
   return true;
 }
@@ -91,10 +97,11 @@ void SimDs18b20::write_tree(const std::string& root) {
   std::filesystem::create_directories(dir);
   std::array<std::uint8_t, 9> pad{};
   const bool crc_ok = current_pad(pad, false);
-  for (const W1File file : {W1File::w1_slave, W1File::temperature}) {
+  for (const W1File file : {W1File::w1_slave, W1File::temperature, W1File::resolution}) {
     std::array<char, 256> text{};
     const std::size_t n = render(file, pad, crc_ok, text);
-    std::ofstream out(dir / (file == W1File::w1_slave ? "w1_slave" : "temperature"), std::ios::trunc);
+    const char* name = file == W1File::w1_slave ? "w1_slave" : file == W1File::temperature ? "temperature" : "resolution";
+    std::ofstream out(dir / name, std::ios::trunc);
     out.write(text.data(), static_cast<std::streamsize>(n));
     if (!out) throw std::runtime_error("cannot write the fake w1 tree under " + dir.string());
   }

@@ -177,3 +177,20 @@ TEST_CASE("invalid parameters are rejected naming the field") {
   q.out_min = 3.0;
   CHECK_THROWS_WITH(IncrementalPid{q}, Catch::Contains("out_min"));
 }
+
+TEST_CASE("limits given for a step bound the output, and the integral stops at them") {
+  PidParams p = PidParams::from_gains(0.2, 0.05, 0.0, 2.0);  // PI: no derivative kick hides a windup
+  p.xi_c = 1.0;
+  IncrementalPid pid{p};
+  // Inside the band, too cold: the output would climb by KI * 0.4 every step.
+  double out = 0.0;
+  for (int k = 0; k < 200; ++k) out = pid.step(54.6, 55.0, -0.2, 0.3);
+  CHECK(out == Approx(0.3));
+  CHECK(pid.saturated());
+  // The limits of the parameters (2 A) would have let it wind up to 2 A, and
+  // the output would stay at 0.3 A for ~100 steps; with the step's limits it
+  // comes off as soon as the error turns.
+  out = pid.step(55.0625, 55.0, -0.2, 0.3);
+  out = pid.step(55.0625, 55.0, -0.2, 0.3);
+  CHECK(out < 0.3);
+}

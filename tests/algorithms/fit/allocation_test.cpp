@@ -6,6 +6,7 @@
 
 #include "gyrotc/algorithms/fit/bp_network_fit.hpp"
 #include "gyrotc/algorithms/fit/compensator.hpp"
+#include "gyrotc/algorithms/fit/spline_fit.hpp"
 #include "gyrotc_catch.hpp"
 #include "table2.hpp"
 
@@ -57,6 +58,7 @@ TEST_CASE("compensation does not allocate for any model kind") {
       Compensator{BiasModel::paper_reference()},
       Compensator{BiasModel::polynomial({20.0, 60.0, {80.0, -30.0, 5.0, 1.0}, -40.0, 80.0})},
       Compensator{BiasModel::bp_network(train_bp_network(table.temp_c, table.gyro_mv, o).net)},
+      Compensator{BiasModel::spline(fit_interpolating_spline(table.temp_c, table.gyro_mv))},
   };
   for (const Compensator& c : models) {
     const long before = g_allocations.load();

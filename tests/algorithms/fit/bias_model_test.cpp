@@ -11,6 +11,7 @@ using gyrotc::fit::BpNetwork;
 using gyrotc::fit::Compensator;
 using gyrotc::fit::Piecewise;
 using gyrotc::fit::Polynomial;
+using gyrotc::fit::Spline;
 
 TEST_CASE("the seed's printed coefficients with the erratum reproduce Table 2 within 1.6 mV") {
   const auto table = gyrotc::test::read_table2();
@@ -65,6 +66,35 @@ TEST_CASE("a BP network evaluates tansig hidden layers and a linear output with 
   const double y = 1.5 * std::tanh(0.5 * x + 0.1) - 0.5 * std::tanh(-1.0 * x + 0.2) + 0.3;
   CHECK(m.bias_mv(t) == Approx(80.0 + 30.0 * y));
   CHECK(m.parameter_count() == 7);
+}
+
+TEST_CASE("a spline with a cubic's values and second derivatives is that cubic, inside and beyond its knots") {
+  // T^3 - 2T: second derivative 6T. The stored form must give the cubic
+  // back exactly, on every interval and on the continued end intervals.
+  auto f = [](double t) { return t * t * t - 2.0 * t; };
+  Spline sp;
+  sp.knots_c = {-1.0, 0.5, 2.0, 3.0};
+  for (double k : sp.knots_c) {
+    sp.values_mv.push_back(f(k));
+    sp.second_derivatives.push_back(6.0 * k);
+  }
+  sp.t_min_c = -2.0;
+  sp.t_max_c = 4.0;
+  const BiasModel m = BiasModel::spline(sp);
+  for (double t = -2.0; t <= 4.0; t += 0.125) CHECK(m.bias_mv(t) == Approx(f(t)).margin(1e-12));
+  CHECK(m.bias_mv(5.0) == Approx(f(4.0)).margin(1e-12));  // clamped at the range end
+  CHECK(m.parameter_count() == 12);
+  CHECK(m.kind_name() == "spline");
+}
+
+TEST_CASE("inconsistent splines are rejected naming the field") {
+  Spline sp{{0.0, 1.0, 1.0}, {1.0, 2.0, 3.0}, {0.0, 0.0, 0.0}, 0.0, 1.0};
+  CHECK_THROWS_WITH(BiasModel::spline(sp), Catch::Contains("knots_c[2]"));
+  sp.knots_c = {0.0, 1.0, 2.0};
+  CHECK_THROWS_WITH(BiasModel::spline(sp), Catch::Contains("range must contain every knot"));
+  sp.t_max_c = 2.0;
+  sp.values_mv.pop_back();
+  CHECK_THROWS_WITH(BiasModel::spline(sp), Catch::Contains("values_mv"));
 }
 
 TEST_CASE("inconsistent models are rejected naming the field") {

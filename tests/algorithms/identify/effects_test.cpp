@@ -1,6 +1,7 @@
 #include <cmath>
 
 #include "gyrotc/algorithms/model/effects.hpp"
+#include "gyrotc/algorithms/model/plant.hpp"
 #include "gyrotc_catch.hpp"
 
 using gyrotc::model::Effects;
@@ -55,4 +56,30 @@ TEST_CASE("tec_joule_heating adds half of I^2 R to the casing") {
   e.tec_joule_heating = gyrotc::model::TecJouleHeatingEffect{1.5};
   CHECK(gyrotc::model::tec_joule_heat_w(e, 2.0) == Approx(3.0));
   CHECK(gyrotc::model::tec_joule_heat_w(e, -2.0) == Approx(3.0));
+}
+
+TEST_CASE("ambient_sensitivity adds k times the ambient's departure from its reference") {
+  Effects e;
+  e.ambient_sensitivity = gyrotc::model::AmbientSensitivityEffect{0.2, 25.0};
+  GyroEffectState state(e);
+  state.reset(30.0);
+  CHECK(state.extra_bias_mv() == 0.0);  // the ambient not yet set reads as the reference
+  state.set_ambient_c(45.0);
+  state.advance(1.0, 30.0);
+  CHECK(state.extra_bias_mv() == Approx(0.2 * 20.0));
+}
+
+TEST_CASE("the plant applies ambient_sensitivity: same seed, same thermal history, bias shifted by k (T_amb - ref)") {
+  gyrotc::model::PlantParams base;
+  gyrotc::model::PlantParams with = base;
+  with.effects.ambient_sensitivity = gyrotc::model::AmbientSensitivityEffect{0.3, 25.0};
+  gyrotc::model::Plant a(base, 9);
+  gyrotc::model::Plant b(with, 9);
+  for (auto* p : {&a, &b}) {
+    p->set_ambient_c(40.0);
+    p->advance(120.0);
+    p->flush();
+  }
+  CHECK(b.casing_c() == a.casing_c());
+  CHECK(b.gyro_bias_mv() - a.gyro_bias_mv() == Approx(0.3 * (40.0 - 25.0)).epsilon(1e-9));
 }

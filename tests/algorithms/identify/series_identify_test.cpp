@@ -1,3 +1,5 @@
+#include <cmath>
+#include <numbers>
 #include <string>
 
 #include "gyrotc/algorithms/identify/record_generator.hpp"
@@ -97,4 +99,55 @@ TEST_CASE("a record too short or without tec_a for sensor_c is refused") {
   SeriesRecord no_tec = generate_record(s);
   no_tec.tec_a.clear();
   CHECK_THROWS_AS(identify_series(no_tec, SeriesTarget::sensor_c), std::invalid_argument);
+}
+
+TEST_CASE("a lag on a narrow temperature range is answered as the lag or as an ambiguity naming it") {
+  // 22..34 C: the bias slope is nearly constant, so a lag and a rate
+  // sensitivity (and, on this one-node casing, an ambient sensitivity) act
+  // alike; naming one of the others alone would be wrong.
+  RecordSpec s = spec(ChamberProfile::up_down_ramps, 5008);
+  s.low_c = 22.0;
+  s.high_c = 34.0;
+  s.noise_mv = 1.0;
+  s.effects.thermal_lag = ThermalLagEffect{30.0};
+  const auto id = identify_series(generate_record(s), SeriesTarget::gyro_mv, fast());
+  const bool named = id.verdict == "thermal_lag" ||
+                     (id.verdict.rfind("ambiguous:", 0) == 0 && id.verdict.find("thermal_lag") != std::string::npos);
+  CHECK(named);
+}
+
+TEST_CASE("an ambient sensitivity is named when TEC steps decouple the casing from the ambient") {
+  RecordSpec s = spec(ChamberProfile::random_steps, 5009);
+  s.tec_step_a = 1.5;
+  s.effects.ambient_sensitivity = gyrotc::model::AmbientSensitivityEffect{0.1, 25.0};
+  const auto id = identify_series(generate_record(s), SeriesTarget::gyro_mv, fast());
+  CHECK(id.verdict == "ambient_sensitivity");
+  REQUIRE_FALSE(id.added.empty());
+  CHECK(id.added[0].params[0].value == Approx(0.1).epsilon(0.2));
+}
+
+TEST_CASE("on a one-node casing an ambient sensitivity is ambiguous with a rate sensitivity, and the note says why") {
+  // ambient - T = tau dT/dt exactly: the two effects give the same record.
+  RecordSpec s = spec(ChamberProfile::up_down_ramps, 5010);
+  s.effects.ambient_sensitivity = gyrotc::model::AmbientSensitivityEffect{0.1, 25.0};
+  const auto id = identify_series(generate_record(s), SeriesTarget::gyro_mv, fast());
+  CHECK(id.verdict == "ambiguous:rate_sensitivity+ambient_sensitivity");
+  CHECK(id.note.find("cannot be told apart") != std::string::npos);
+}
+
+TEST_CASE("a periodic disturbance outside the library is reported as unexplained structure, not as an effect") {
+  RecordSpec s = spec(ChamberProfile::up_down_ramps, 5011);
+  SeriesRecord r = generate_record(s);
+  for (std::size_t i = 0; i < r.gyro_mv.size(); ++i) r.gyro_mv[i] += 0.5 * std::sin(2.0 * std::numbers::pi * r.time_s[i] / 5400.0);
+  const auto id = identify_series(r, SeriesTarget::gyro_mv, fast());
+  CHECK(id.verdict == "unexplained");
+  CHECK(id.statement.find("none of the library's effects explains the residual") == 0);
+}
+
+TEST_CASE("a verdict is worded as what the record is consistent with") {
+  RecordSpec s = spec(ChamberProfile::random_steps, 5012);
+  s.effects.warm_up = WarmUpEffect{2.0, 600.0};
+  const auto id = identify_series(generate_record(s), SeriesTarget::gyro_mv, fast());
+  CHECK(id.verdict == "warm_up");
+  CHECK(id.statement == "consistent with warm_up");
 }

@@ -77,18 +77,97 @@ TEST_CASE("no reading for more than 3 PID periods turns the TEC off, flags it an
   CHECK((cmd.flags & kFlagTempStale) == 0);
 }
 
-TEST_CASE("an invalid reading turns the TEC off at the next tick and M good readings recover") {
+// One reading per PID period, just before the tick: the case where a
+// glitch leaves a period with no valid reading at all.
+struct PeriodHarness {
+  Compensator compensator{BiasModel::paper_reference()};
+  Controller controller{ControllerConfig{}, compensator};
+  double now_s = 0.0;
+  TecCommand period(const TemperatureReading& reading) {
+    now_s += 2.0;
+    controller.on_temperature(reading, now_s);
+    return controller.on_pid_tick(now_s);
+  }
+  TecCommand good_period(double temp_c) { return period(good(temp_c, now_s + 2.0 - 0.75)); }
+};
+
+TEST_CASE("a single invalid reading changes the TEC current by less than one PID step") {
+  PeriodHarness h;
+  // Settling below the setpoint: the integral moves the current every period.
+  for (int i = 0; i < 5; ++i) h.good_period(54.8);
+  const TecCommand before = h.good_period(54.8);
+  const TecCommand reference = h.good_period(54.8);
+  const double pid_step_a = std::fabs(reference.current_a - before.current_a);
+  REQUIRE(pid_step_a > 1e-3);
+  const TecCommand glitch = h.period(bad(h.now_s + 1.25, TempFault::crc));
+  CHECK(glitch.enable);
+  CHECK((glitch.flags & kFlagTempInvalid) != 0);
+  CHECK((glitch.flags & kFlagTecOff) == 0);
+  CHECK(std::fabs(glitch.current_a - reference.current_a) < pid_step_a);  // held
+  // The next valid reading steps the PID from there, not from 0 A.
+  const TecCommand after = h.good_period(54.8);
+  CHECK(after.enable);
+  CHECK(std::fabs(after.current_a - glitch.current_a) < 1.5 * pid_step_a);
+}
+
+TEST_CASE("invalid readings hold the TEC until the stale limit, then turn it off, flagged") {
+  PeriodHarness h;
+  for (int i = 0; i < 10; ++i) h.good_period(54.0);
+  const double held_a = h.controller.last_command().current_a;
+  // 3 PID periods of stale_periods: the 3rd invalid period is still within.
+  for (int i = 0; i < 3; ++i) {
+    const TecCommand cmd = h.period(bad(h.now_s + 1.25, i == 0 ? TempFault::power_on_value : TempFault::crc));
+    CHECK(cmd.enable);
+    CHECK(cmd.current_a == held_a);
+  }
+  const TecCommand off = h.period(bad(h.now_s + 1.25, TempFault::crc));
+  CHECK_FALSE(off.enable);
+  CHECK(off.current_a == 0.0);
+  CHECK((off.flags & (kFlagTempStale | kFlagTempInvalid | kFlagTecOff)) ==
+        (kFlagTempStale | kFlagTempInvalid | kFlagTecOff));
+}
+
+TEST_CASE("after a sensor fault the PID restarts bumplessly where it stopped, once M good readings came") {
+  PeriodHarness h;
+  for (int i = 0; i < 40; ++i) h.good_period(54.9);
+  const double held_a = h.controller.last_command().current_a;
+  REQUIRE(std::fabs(held_a) > 0.05);
+  for (int i = 0; i < 5; ++i) h.period(bad(h.now_s + 1.25, TempFault::crc));
+  REQUIRE_FALSE(h.controller.last_command().enable);
+  TecCommand cmd = h.good_period(54.9);
+  cmd = h.good_period(54.9);
+  CHECK_FALSE(cmd.enable);  // two good readings: not yet (M = 3)
+  cmd = h.good_period(54.9);
+  CHECK(cmd.enable);
+  CHECK((cmd.flags & (kFlagTempInvalid | kFlagTempStale)) == 0);
+  // From the held current (plus the proportional term of the same error), not from 0 A.
+  CHECK(cmd.current_a == Approx(held_a).margin(0.1));
+}
+
+TEST_CASE("with invalid readings between valid ones the PID keeps regulating on the valid ones") {
   Harness h;
   h.run_for(10.0, 54.0);
-  h.controller.on_temperature(bad(h.now_s, TempFault::crc), h.now_s);
-  TecCommand cmd = h.controller.on_pid_tick(h.now_s);
-  CHECK_FALSE(cmd.enable);
-  CHECK((cmd.flags & kFlagTempInvalid) != 0);
-  // 85 C power-on value flagged by the driver, and an out-of-range value.
+  for (int i = 0; i < 20; ++i) {
+    h.now_s += 1.0;
+    h.controller.on_temperature(bad(h.now_s, TempFault::crc), h.now_s);  // every other reading: a flaky bus
+    h.now_s += 1.0;
+    h.controller.on_temperature(good(50.0, h.now_s - 0.75), h.now_s);
+    (void)h.controller.on_pid_tick(h.now_s);
+  }
+  const TecCommand cmd = h.controller.last_command();
+  CHECK(cmd.enable);
+  CHECK(cmd.current_a > 0.5);  // heating towards 55 C from a casing at 50 C
+  CHECK((cmd.flags & kFlagTempInvalid) != 0);  // never M good readings in a row
+}
+
+TEST_CASE("85 C power-on and out-of-range readings are invalid, never the controller's input") {
+  Harness h;
+  h.run_for(10.0, 54.0);
   h.controller.on_temperature(bad(h.now_s, TempFault::power_on_value), h.now_s);
   h.controller.on_temperature(good(200.0, h.now_s), h.now_s);
-  CHECK_FALSE(h.controller.on_pid_tick(h.now_s).enable);
-  cmd = h.run_for(4.0, 54.0);
+  CHECK((h.controller.flags() & kFlagTempInvalid) != 0);
+  CHECK(h.controller.last_casing_c() != 200.0);
+  const TecCommand cmd = h.run_for(6.0, 54.0);
   CHECK(cmd.enable);
   CHECK((cmd.flags & kFlagTempInvalid) == 0);
 }
@@ -254,4 +333,120 @@ TEST_CASE("configurations that cannot work are rejected naming the field") {
   c.setpoint_c = 90.0;  // above the over-temperature limit
   const Compensator comp(BiasModel::paper_reference());
   CHECK_THROWS_WITH(Controller(c, comp), Catch::Contains("setpoint_c"));
+}
+
+namespace {
+
+// Integral-separated PI (KD 0) with a small Kp, so that an integral wound up
+// beyond the limit would hold the output there for many periods.
+ControllerConfig slow_pi() {
+  ControllerConfig c;
+  c.pid = gyrotc::control::PidParams::from_gains(0.2, 0.05, 0.0, 2.0);
+  c.pid.xi_c = 1.0;
+  c.pid.out_min = -1.0;
+  c.pid.out_max = 1.0;
+  return c;
+}
+
+// PID ticks (every 2 s, a reading every second) from the casing passing the
+// setpoint until the current leaves max_a; -1 if it never does within 100 s.
+int periods_to_leave(Harness& h, double casing_c, double max_a) {
+  for (int k = 1; k <= 50; ++k) {
+    const TecCommand cmd = h.run_for(2.0, casing_c, true, false);
+    if (cmd.current_a < max_a - 1e-9) return k;
+  }
+  return -1;
+}
+
+}  // namespace
+
+TEST_CASE("a TEC saturated by the feed-forward does not wind up: it leaves the limit within two periods") {
+  ControllerConfig c = slow_pi();
+  c.feed_forward_a_per_c = 0.01;  // at -45 C ambient: 1 A of feed-forward alone
+  Harness h(c);
+  h.controller.on_ambient_temperature(good(-45.0, 0.0), 0.0);
+  // 0.4 C too cold inside the band for 20 min: the applied current sits at the
+  // 1 A limit while the integral is asked for more every period.
+  TecCommand cmd = h.run_for(1200.0, 54.6);  // readings 54.6 and 54.6625: not a stuck sensor
+  CHECK(cmd.current_a == Approx(1.0));
+  CHECK((cmd.flags & kFlagTecSaturated) != 0);
+  // The casing passes the setpoint by one DS18B20 step: less heat is wanted.
+  const int periods = periods_to_leave(h, 55.0625, 1.0);
+  INFO("PID periods to leave the limit: " << periods);
+  CHECK(periods >= 1);
+  CHECK(periods <= 2);
+}
+
+TEST_CASE("a TEC held at the OPA548 rail limit does not wind up: it leaves the rail within two periods") {
+  ControllerConfig c = slow_pi();
+  // 12 ohm module, S 0.051 V/K, +/-15 V rails with 2.5 V of headroom.
+  c.rail = RailLimit{true, 12.5 / 12.0, -12.5 / 12.0, 0.051 / 12.0};
+  Harness h(c);
+  h.controller.on_ambient_temperature(good(-30.0, 0.0), 0.0);
+  const double rail_a = 12.5 / 12.0 - 0.051 / 12.0 * (54.6625 + 30.0);  // 0.68 A, below the 1 A limit
+  TecCommand cmd = h.run_for(1200.0, 54.6);  // readings 54.6 and 54.6625: not a stuck sensor
+  CHECK(cmd.current_a == Approx(rail_a).margin(1e-9));
+  CHECK((cmd.flags & kFlagTecSaturated) != 0);
+  const double rail_then_a = 12.5 / 12.0 - 0.051 / 12.0 * (55.0625 + 30.0);
+  const int periods = periods_to_leave(h, 55.0625, rail_then_a);
+  INFO("PID periods to leave the rail: " << periods);
+  CHECK(periods >= 1);
+  CHECK(periods <= 2);
+}
+
+namespace {
+
+// A programme that asks for a fixed current and finishes after a while.
+class FixedProgram final : public gyrotc::control::TecProgram {
+ public:
+  FixedProgram(double current_a, double until_s) : current_a_(current_a), until_s_(until_s) {}
+  gyrotc::control::TecProgramInput last;
+  int calls = 0;
+
+ private:
+  gyrotc::control::TecProgramOutput do_next(const gyrotc::control::TecProgramInput& in) noexcept override {
+    last = in;
+    ++calls;
+    return {current_a_, in.time_s >= until_s_};
+  }
+  double current_a_;
+  double until_s_;
+};
+
+}  // namespace
+
+TEST_CASE("a TEC programme replaces the PID within the limits, and the TEC stays off once it finishes") {
+  ControllerConfig c;
+  c.pid.out_max = 0.8;
+  Harness h(c);
+  FixedProgram program(5.0, 20.0);
+  h.controller.run_program(&program);
+  TecCommand cmd = h.run_for(10.0, 30.0, true, false);
+  CHECK(cmd.enable);
+  CHECK(cmd.current_a == Approx(0.8));  // clamped to the limit
+  CHECK((cmd.flags & kFlagTecSaturated) != 0);
+  CHECK(program.last.max_a == Approx(0.8));
+  CHECK(program.last.casing_c == Approx(30.0));
+  CHECK(std::isnan(program.last.ambient_c));
+  CHECK_FALSE(h.controller.program_finished());
+  cmd = h.run_for(20.0, 30.0, true, false);
+  CHECK(h.controller.program_finished());
+  CHECK_FALSE(cmd.enable);
+  CHECK(cmd.current_a == 0.0);
+  const int calls = program.calls;
+  cmd = h.run_for(10.0, 30.0, true, false);
+  CHECK_FALSE(cmd.enable);
+  CHECK(program.calls == calls);  // not asked again
+}
+
+TEST_CASE("a TEC programme is not asked while a fail-safe holds the TEC off") {
+  Harness h;
+  FixedProgram program(0.3, 1e9);
+  h.controller.run_program(&program);
+  h.run_for(10.0, 30.0, true, false);
+  const int calls = program.calls;
+  const TecCommand cmd = h.run_for(8.0, 30.0, /*deliver=*/false);  // stale readings
+  CHECK_FALSE(cmd.enable);
+  CHECK((cmd.flags & kFlagTempStale) != 0);
+  CHECK(program.calls <= calls + 3);  // only until the reading went stale
 }

@@ -3,12 +3,14 @@
 #include <fcntl.h>
 #include <unistd.h>
 
+#include <atomic>
 #include <chrono>
 #include <cstdio>
 #include <iterator>
 #include <cmath>
 #include <fstream>
 #include <string>
+#include <string_view>
 #include <thread>
 #include <vector>
 
@@ -21,10 +23,15 @@
 #include "gyrotc/app/errors.hpp"
 #include "gyrotc/hal/chips/ads1251.hpp"
 #include "gyrotc_catch.hpp"
+#include "gyrotc_process.hpp"
 #include "test_paths.hpp"
 
 using namespace gyrotc;
 using gyrotc::app::RealtimeRunner;
+using gyrotc::test::exit_status;
+using gyrotc::test::read_text;
+using gyrotc::test::spawn_gyrotc;
+using gyrotc::test::wait_for_text;
 
 // Every test here starts the runner's threads (in process or in a `gyrotc`
 // child): native only under qemu (see link.cmake).
@@ -57,49 +64,6 @@ struct SimRig {
     return !sim.opa548_chip().output_enabled() && std::fabs(sim.tec_dac_chip().output_v() - mid_v) < 1e-3;
   }
 };
-
-// Starts the gyrotc executable with args, stderr to err_path.
-pid_t spawn_gyrotc(const std::vector<std::string>& args, const std::string& err_path) {
-  const std::string exe = gyrotc::test::gyrotc_exe();
-  std::vector<char*> argv;
-  argv.push_back(const_cast<char*>(exe.c_str()));
-  for (const auto& a : args) argv.push_back(const_cast<char*>(a.c_str()));
-  argv.push_back(nullptr);
-  // Truncated here, not in the child: a caller polling the file must never
-  // see a previous run's lines.
-  const int fd = open(err_path.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
-  if (fd < 0) return -1;
-  const pid_t pid = fork();
-  if (pid == 0) {
-    dup2(fd, STDERR_FILENO);
-    const int null = open("/dev/null", O_WRONLY);
-    dup2(null, STDOUT_FILENO);
-    execv(exe.c_str(), argv.data());
-    _exit(127);
-  }
-  close(fd);
-  return pid;
-}
-
-std::string read_text(const std::string& path) {
-  std::ifstream in(path);
-  return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-}
-
-// Waits (bounded) until the file at path contains text.
-bool wait_for_text(const std::string& path, const std::string& text) {
-  for (int i = 0; i < 300; ++i) {
-    if (read_text(path).find(text) != std::string::npos) return true;
-    std::this_thread::sleep_for(std::chrono::milliseconds(100));
-  }
-  return false;
-}
-
-int exit_status(pid_t pid) {
-  int status = 0;
-  if (waitpid(pid, &status, 0) != pid || !WIFEXITED(status)) return -1;
-  return WEXITSTATUS(status);
-}
 
 void wait_finished(const RealtimeRunner& runner) {
   // A bound on the test, not a timing assertion: the runs below last seconds.
@@ -199,6 +163,53 @@ TEST_CASE("SIGTERM to a running `gyrotc run` on the simulated board: exit 0, TEC
   for (const char* key : {"min", "avg", "p50", "p99", "max"}) CHECK(j.at("latency_us").contains(key));
   CHECK(j.contains("overruns"));
   CHECK(j.contains("missed_drdy"));
+  for (const char* key : {"late_reads", "spurious_edges", "missed_conversions"}) CHECK(j.contains(key));
+  CHECK(j.at("sim_adc").at("accepted_samples").get<std::uint64_t>() == j.at("samples").get<std::uint64_t>());
+  CHECK(j.at("sim_adc").at("accepted_corrupted_samples").get<std::uint64_t>() == 0);
+}
+
+TEST_CASE("stop puts the TEC in the safe state without waiting for a DS18B20 read in progress") {
+  // A casing sensor whose conversion hangs until released, and a TEC stage
+  // that notes when it was made safe.
+  struct HangingSensor final : hal::TemperatureSensor {
+    std::atomic<bool> reading{false};
+    std::atomic<bool> release{false};
+    hal::TemperatureReading do_read() override {
+      reading = true;
+      while (!release) std::this_thread::sleep_for(std::chrono::milliseconds(5));
+      return {};
+    }
+    std::string_view do_name() const noexcept override { return "hanging"; }
+  } sensor;
+  struct NotingTec final : hal::TecDriver {
+    explicit NotingTec(hal::TecDriver& tec) : inner(tec) {}
+    hal::TecDriver& inner;
+    std::atomic<bool> made_safe{false};
+    hal::Status do_set_current_a(double a) noexcept override { return inner.set_current_a(a); }
+    hal::Status do_enable(bool on) noexcept override { return inner.enable(on); }
+    hal::Result<hal::ThermalStatus> do_thermal_status() noexcept override { return inner.thermal_status(); }
+    bool do_senses_thermal() const noexcept override { return inner.senses_thermal(); }
+    hal::Status do_safe_off() noexcept override {
+      made_safe = true;
+      return inner.safe_off();
+    }
+  };
+  SimRig rig;
+  hal::Board sim = rig.instance.board();
+  NotingTec tec(sim.tec);
+  const hal::Board board{sim.adc, sensor, nullptr, sim.rate_dac, tec, sim.clock};
+  RealtimeRunner runner(board, rig.controller, rig.options(0.0, true));
+  runner.start();
+  for (int i = 0; i < 200 && !sensor.reading; ++i) std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  REQUIRE(sensor.reading);
+  tec.made_safe = false;  // start() made it safe once
+  std::thread stopper([&runner] { runner.stop(); });
+  for (int i = 0; i < 200 && !tec.made_safe; ++i) std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  CHECK(tec.made_safe);       // safe while the sensor thread still hangs in its read
+  CHECK_FALSE(sensor.release);
+  CHECK(rig.tec_off());
+  sensor.release = true;
+  stopper.join();
 }
 
 TEST_CASE("SIGHUP reloads the calibration file, an invalid one is rejected, logged, and the run goes on") {

@@ -46,7 +46,7 @@ std::string with_header(const std::string& body) {
 
 }  // namespace
 
-TEST_CASE("polynomial, piecewise, BP network and the paper reference survive a save and load") {
+TEST_CASE("polynomial, piecewise, spline, BP network and the paper reference survive a save and load") {
   const Table2 t = table2();
   MethodOptions o;
   o.method = Method::polynomial;
@@ -54,6 +54,8 @@ TEST_CASE("polynomial, piecewise, BP network and the paper reference survive a s
   check_round_trip(fit_method(t.temp_c, t.gyro_mv, o).model);
   o.method = Method::paper;
   o.orders.clear();
+  check_round_trip(fit_method(t.temp_c, t.gyro_mv, o).model);
+  o.method = Method::smoothing;
   check_round_trip(fit_method(t.temp_c, t.gyro_mv, o).model);
   BpTrainOptions bp;
   bp.hidden = {4, 3};
@@ -72,7 +74,7 @@ TEST_CASE("save_calibration writes a file load_calibration reads") {
   CHECK_THROWS_AS(gyrotc::app::load_calibration(path.string()), InputError);
 }
 
-TEST_CASE("the shipped default calibration is the best LOO model of Table 2") {
+TEST_CASE("the shipped default calibration is what fit --method auto makes of Table 2") {
   const BiasModel m = gyrotc::app::load_calibration(gyrotc::test::data_file("calibration_table2.toml"));
   const Table2 t = table2();
   MethodOptions o;
@@ -87,7 +89,16 @@ TEST_CASE("calibration errors name the file, line and key") {
     return gyrotc::test::input_error_of([&] { parse_calibration(text, "cal.toml"); });
   };
   CHECK_THAT(error_of("version = 1\nkind = \"paper_reference\"\n"), Catch::Contains("key 'format': missing"));
-  CHECK_THAT(error_of(with_header("kind = \"spline\"\n")), Catch::Contains("cal.toml:3: key 'kind'"));
+  CHECK_THAT(error_of(with_header("kind = \"quadric\"\n")), Catch::Contains("cal.toml:3: key 'kind'"));
+  CHECK_THAT(error_of(with_header("kind = \"spline\"\nrange_c = [0.0, 10.0]\n[spline]\nknots_c = [0.0, 5.0, 5.0]\n"
+                                  "values_mv = [1.0, 2.0, 3.0]\nsecond_derivatives = [0.0, 0.0, 0.0]\n")),
+             Catch::Contains("cal.toml:6: key 'spline.knots_c[2]'"));
+  CHECK_THAT(error_of(with_header("kind = \"spline\"\nrange_c = [0.0, 10.0]\n[spline]\nknots_c = [0.0, 5.0, 12.0]\n"
+                                  "values_mv = [1.0, 2.0, 3.0]\nsecond_derivatives = [0.0, 0.0, 0.0]\n")),
+             Catch::Contains("key 'spline.knots_c[2]': knots must ascend strictly inside range_c"));
+  CHECK_THAT(error_of(with_header("kind = \"spline\"\nrange_c = [0.0, 10.0]\n[spline]\nknots_c = [0.0, 5.0, 10.0]\n"
+                                  "values_mv = [1.0, 2.0]\nsecond_derivatives = [0.0, 0.0, 0.0]\n")),
+             Catch::Contains("cal.toml:7: key 'spline.values_mv': need one value per knot (3), got 2"));
   CHECK_THAT(error_of(with_header("kind = \"polynomial\"\nrange_c = [0.0, 10.0]\n[polynomial]\ncenter_c = 0\n"
                                   "scale_c = 1\ncoefficients_mv = [1.0, \"x\"]\n")),
              Catch::Contains("key 'polynomial.coefficients_mv[1]': expected a number"));

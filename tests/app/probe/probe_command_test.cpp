@@ -1,4 +1,5 @@
 #include <fcntl.h>
+#include <sys/file.h>
 #include <unistd.h>
 
 #include <cstdio>
@@ -6,6 +7,7 @@
 #include <fstream>
 #include <sstream>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <CLI/CLI.hpp>
@@ -21,6 +23,30 @@ namespace fs = std::filesystem;
 namespace {
 
 const std::string kSimConfig = gyrotc::test::config_file("gyrotc-sim.toml");
+const std::string kLinuxConfig = gyrotc::test::config_file("gyrotc-linux.toml");
+
+std::string read_text(const std::string& path) {
+  std::ifstream in(path);
+  std::stringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
+
+// A copy of a configuration with text replaced, in the temp directory; its
+// calibration stays the one beside the original.
+std::string variant(const std::string& from, std::vector<std::pair<std::string, std::string>> edits,
+                    const std::string& name) {
+  std::string s = read_text(from);
+  edits.emplace_back("file = \"calibration.toml\"", "file = \"" + gyrotc::test::config_file("calibration.toml") + "\"");
+  for (const auto& [old_text, new_text] : edits) {
+    const std::size_t at = s.find(old_text);
+    REQUIRE(at != std::string::npos);
+    s.replace(at, old_text.size(), new_text);
+  }
+  const fs::path path = fs::temp_directory_path() / ("gyrotc-probe-" + name + "-" + std::to_string(::getpid()) + ".toml");
+  std::ofstream(path) << s;
+  return path.string();
+}
 
 struct ProbeRun {
   int status = 0;
@@ -137,6 +163,61 @@ TEST_CASE("probe with hal = linux and no devices prints one error line per devic
   CHECK(lines[7].rfind("calibration     OK", 0) == 0);
 }
 
+TEST_CASE("probe on the reference wiring reports the OPA548 thermal state as unknown, a warning, not clear") {
+  // deploy/config/gyrotc-linux.toml on the simulated board: no es_sense line.
+  const std::string config = variant(kLinuxConfig, {{"\nhal = \"linux\"", "\nhal = \"sim\""}}, "reference");
+  const ProbeRun run = probe({"--config", config});
+  fs::remove(config);
+  CHECK(run.status == 0);  // a warning, not a failure
+  const auto lines = lines_of(run.out);
+  REQUIRE(lines.size() == 8);
+  INFO(lines[6]);
+  CHECK(lines[6].rfind("opa548          WARNING disabled; thermal state unknown: no E/S sense line", 0) == 0);
+  CHECK(run.out.find("clear") == std::string::npos);
+}
+
+TEST_CASE("probe with an E/S sense line reads the thermal flag with the OPA548 enabled at 0 A") {
+  const ProbeRun run = probe({"--config", kSimConfig});
+  const auto lines = lines_of(run.out);
+  REQUIRE(lines.size() == 8);
+  INFO(lines[6]);
+  CHECK(lines[6].find("thermal flag clear (enabled 10 ms at 0 A to read E/S), disabled again") != std::string::npos);
+}
+
+TEST_CASE("probe reports the ADC driver's counts of late reads, spurious edges and missed conversions") {
+  const ProbeRun run = probe({"--config", kSimConfig});
+  const auto lines = lines_of(run.out);
+  REQUIRE(lines.size() == 8);
+  INFO(lines[1]);
+  CHECK(lines[1].find("200 of 200 reads: late reads 0, spurious edges 0, missed conversions 0") != std::string::npos);
+}
+
+TEST_CASE("probe of a board another process holds says so, naming the PID, and writes nothing") {
+  // Regular files stand in for the spidev nodes; this process holds the TEC DAC's.
+  const std::string dir = fs::temp_directory_path() / ("gyrotc-probe-busy-" + std::to_string(::getpid()));
+  fs::create_directories(dir);
+  for (const char* node : {"/adc", "/rate", "/tec"}) std::ofstream(dir + node) << "";
+  const int holder = ::open((dir + "/tec").c_str(), O_RDWR | O_CLOEXEC);
+  REQUIRE(holder >= 0);
+  REQUIRE(::flock(holder, LOCK_EX | LOCK_NB) == 0);
+  const std::string config =
+      variant(kLinuxConfig,
+              {{"spi = \"/dev/spidev0.0\"", "spi = \"" + dir + "/adc\""},
+               {"spi = \"/dev/spidev6.0\"", "spi = \"" + dir + "/rate\""},
+               {"spi = \"/dev/spidev6.1\"", "spi = \"" + dir + "/tec\""}},
+              "busy");
+  const ProbeRun run = probe({"--config", config});
+  ::close(holder);
+  fs::remove(config);
+  fs::remove_all(dir);
+  CHECK(run.status == 1);
+  INFO(run.out);
+  CHECK(run.out.find("tec_dac         ERROR   '" + dir + "/tec' is already in use by PID " + std::to_string(::getpid())) !=
+        std::string::npos);
+  CHECK(run.out.find("SPI_IOC") == std::string::npos);  // no device was configured or written
+  CHECK(run.out.find("gpiochip") == std::string::npos);  // no GPIO line was requested
+}
+
 TEST_CASE("probe without a readable config file is a usage error") {
   CHECK(probe({"--config", "/nonexistent/gyrotc.toml"}).status == 2);
 }
@@ -164,7 +245,8 @@ TEST_CASE("probe names the calibration the configuration names: file, model, ran
   CHECK(calibration["status"] == "ok");
   const std::string detail = calibration["detail"];
   CHECK(detail.find(gyrotc::test::config_file("calibration.toml") + ": ") == 0);
-  CHECK(detail.find("piecewise, -40..80 C") != std::string::npos);
+  // The shipped calibration_table2.toml: fit --method auto chose a spline.
+  CHECK(detail.find("spline, -40..80 C") != std::string::npos);
   CHECK(detail.find("sha256 ") != std::string::npos);
 }
 

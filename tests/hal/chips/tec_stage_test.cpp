@@ -69,26 +69,39 @@ TEST_CASE("safe_off sets the DAC to 0 A first, then disables the OPA548") {
   CHECK_FALSE(rig.amp_chip.output_enabled());
 }
 
-TEST_CASE("a thermal shutdown shows as the thermal flag while enabled") {
+TEST_CASE("with a sense line a thermal shutdown shows while enabled") {
   Rig rig;
+  REQUIRE(rig.tec.senses_thermal());
   REQUIRE(rig.tec.enable(true).ok());
-  auto flag = rig.tec.thermal_flag();
-  REQUIRE(flag.ok());
-  CHECK_FALSE(*flag);
+  auto status = rig.tec.thermal_status();
+  REQUIRE(status.ok());
+  CHECK(*status == ThermalStatus::clear);
   rig.amp_chip.inject_thermal_shutdown(true);
-  flag = rig.tec.thermal_flag();
-  REQUIRE(flag.ok());
-  CHECK(*flag);
+  status = rig.tec.thermal_status();
+  REQUIRE(status.ok());
+  CHECK(*status == ThermalStatus::shutdown);
   CHECK_FALSE(rig.amp_chip.output_enabled());
   rig.amp_chip.inject_thermal_shutdown(false);
-  CHECK_FALSE(*rig.tec.thermal_flag());
+  CHECK(*rig.tec.thermal_status() == ThermalStatus::clear);
 }
 
-TEST_CASE("without a sense line the thermal flag is read back from the drive line") {
+TEST_CASE("while disabled the thermal state is unknown: E/S is held low by the board") {
+  Rig rig;
+  rig.amp_chip.inject_thermal_shutdown(true);
+  CHECK(*rig.tec.thermal_status() == ThermalStatus::unknown);
+  rig.amp_chip.inject_thermal_shutdown(false);
+  CHECK(*rig.tec.thermal_status() == ThermalStatus::unknown);
+}
+
+TEST_CASE("without a sense line a thermal shutdown is not reported clear: the state is unknown") {
+  // Reading the drive line back gives the level the GPIO drives, not the pin.
   SimOpa548 chip;
   Opa548 amp{chip.es_drive(), nullptr};
   REQUIRE(amp.enable(true).ok());
-  CHECK_FALSE(*amp.thermal_flag());
   chip.inject_thermal_shutdown(true);
-  CHECK(*amp.thermal_flag());
+  CHECK_FALSE(chip.output_enabled());
+  const auto status = amp.thermal_status();
+  REQUIRE(status.ok());
+  CHECK(*status == ThermalStatus::unknown);
+  CHECK_FALSE(amp.has_sense());
 }

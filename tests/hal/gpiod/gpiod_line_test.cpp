@@ -198,7 +198,10 @@ TEST_CASE("set on a line that is not an output is refused") {
 }
 
 TEST_CASE("the library version is the one linked") {
-  CHECK(GpiodLine::library_version().find("libgpiod " + std::to_string(GYROTC_GPIOD_API) + ".") == 0);
+  std::string major = "libgpiod ";  // built step by step: GCC 12's -Wrestrict misfires on a + chain here
+  major += std::to_string(GYROTC_GPIOD_API);
+  major += '.';
+  CHECK(GpiodLine::library_version().rfind(major, 0) == 0);
 }
 
 TEST_CASE("a missing gpiochip name is an error naming it and the errno text") {

@@ -20,7 +20,7 @@ else()
       gpiod_chip_request_lines gpiod_line_request_release gpiod_line_request_get_value
       gpiod_line_request_set_value gpiod_line_request_wait_edge_events
       gpiod_line_request_read_edge_events gpiod_edge_event_buffer_new gpiod_edge_event_buffer_free
-      gpiod_edge_event_buffer_get_event gpiod_edge_event_get_timestamp_ns opendir readdir closedir)
+      gpiod_edge_event_buffer_get_event gpiod_edge_event_get_timestamp_ns opendir readdir readdir64 closedir)
 endif()
 foreach(_fn ${_wrapped})
   target_link_options(${exe} PRIVATE "-Wl,--wrap=${_fn}")

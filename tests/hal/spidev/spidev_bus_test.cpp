@@ -1,8 +1,11 @@
 #include "gyrotc/hal/linux/spidev_bus.hpp"
 
 #include <fcntl.h>
+#include <unistd.h>
 
 #include <cstring>
+#include <filesystem>
+#include <fstream>
 #include <string>
 
 #include "gyrotc/hal/chips/ads1251.hpp"
@@ -45,12 +48,18 @@ TEST_CASE("a missing spidev path is an error naming the path and the errno text"
 }
 
 TEST_CASE("a path that is not a spidev device fails at the first ioctl, naming it") {
-  auto bus = SpidevBus::open("/dev/null");
+  // A file of this process's own (not /dev/null: parallel tests would share its lock).
+  const std::string path = (std::filesystem::temp_directory_path() /
+                            ("gyrotc-not-spidev-" + std::to_string(::getpid())))
+                               .string();
+  std::ofstream(path) << "";
+  auto bus = SpidevBus::open(path);
+  std::filesystem::remove(path);
   REQUIRE(bus.ok());
   const Status s = bus.value()->configure({});
   REQUIRE_FALSE(s.ok());
   const std::string message(s.error().message());
-  CHECK(message.find("SPI_IOC_WR_MODE on '/dev/null'") != std::string::npos);
+  CHECK(message.find("SPI_IOC_WR_MODE on '" + path + "'") != std::string::npos);
   // ENOTTY natively; qemu-user answers unknown ioctls with ENOSYS.
   REQUIRE(s.error().errno_value() != 0);
   CHECK(message.find(std::strerror(s.error().errno_value())) != std::string::npos);
@@ -92,7 +101,7 @@ TEST_CASE("the ADS1251 driver reads through SPI_IOC_MESSAGE with a zero-initiali
   Rig rig;
   auto bus = SpidevBus::open("/dev/spidev0.0");
   REQUIRE(bus.ok());
-  Ads1251 adc{*bus.value(), rig.chip.drdy(), Ads1251Config{}};
+  Ads1251 adc{*bus.value(), rig.chip.drdy(), rig.clock, Ads1251Config{}};
   REQUIRE(adc.init().ok());
   CHECK(rig.fake.mode == SPI_MODE_0);
   rig.input.mv = -321.5;

@@ -18,6 +18,9 @@ extern "C" {
 int __real_open(const char* path, int flags, ...);
 int __real_ioctl(int fd, unsigned long request, ...);
 int __real_close(int fd);
+int __real_flock(int fd, int operation);
+
+int __real_open64(const char* path, int flags, ...);
 
 int __wrap_open(const char* path, int flags, ...) {
   mode_t mode = 0;
@@ -36,6 +39,20 @@ int __wrap_open(const char* path, int flags, ...) {
     return fake->fd;
   }
   return __real_open(path, flags, mode);
+}
+
+// With _FILE_OFFSET_BITS=64 on a 32-bit target (armhf), open() is open64().
+int __wrap_open64(const char* path, int flags, ...) {
+  mode_t mode = 0;
+  if ((flags & (O_CREAT | O_TMPFILE)) != 0) {
+    va_list args;
+    va_start(args, flags);
+    mode = static_cast<mode_t>(va_arg(args, unsigned));
+    va_end(args);
+  }
+  FakeSpidev* fake = FakeSpidev::armed();
+  if (fake != nullptr && fake->path == path) return __wrap_open(path, flags, mode);
+  return __real_open64(path, flags, mode);
 }
 
 int __wrap_ioctl(int fd, unsigned long request, ...) {
@@ -86,6 +103,14 @@ int __wrap_ioctl(int fd, unsigned long request, ...) {
   ++fake->bad_messages;
   errno = ENOTTY;
   return -1;
+}
+
+// The fake's descriptor is /dev/null, which other test processes running in
+// parallel use too: its lock is the fake's own, not the system's.
+int __wrap_flock(int fd, int operation) {
+  FakeSpidev* fake = FakeSpidev::armed();
+  if (fake != nullptr && fd == fake->fd && !fake->closed) return 0;
+  return __real_flock(fd, operation);
 }
 
 int __wrap_close(int fd) {

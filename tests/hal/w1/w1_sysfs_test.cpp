@@ -107,14 +107,49 @@ TEST_CASE("a device directory that vanishes between reads becomes a missing devi
   CHECK(sensor.read().fault == TempFault::missing_device);
 }
 
-TEST_CASE("without an id the first 28-* device is used, other families ignored") {
+TEST_CASE("without an id the only 28-* device is used, other families ignored") {
   FakeSysfs fake;
   fake.write("10-000801b5e8f4", "w1_slave", "garbage");  // a DS18S20, family 0x10
   fake.write("28-000005e2fdc3", "w1_slave", kGood);
-  fake.write("28-000009aaaaaa", "w1_slave", "");
   W1Sysfs device{fake.root.string()};
   CHECK(device.device_path() == (fake.root / "28-000005e2fdc3").string());
   CHECK(read_once(fake).valid);
+}
+
+TEST_CASE("without an id and with two DS18B20s no reading is taken from either, and the error names both") {
+  FakeSysfs fake;
+  fake.write("28-000005e2fdc3", "w1_slave", kGood);
+  fake.write("28-000009aaaaaa", "w1_slave", kGood);
+  W1Sysfs device{fake.root.string()};
+  CHECK(device.device_path() == (fake.root / "28-*").string());
+  const Status bound = device.find_device();
+  REQUIRE_FALSE(bound.ok());
+  CHECK(std::string(bound.error().message()) == "2 DS18B20s under '" + fake.root.string() +
+                                                    "' (28-000005e2fdc3, 28-000009aaaaaa) and no id configured: "
+                                                    "which one is this sensor? set its id");
+  CHECK(read_once(fake).fault == TempFault::ambiguous);
+}
+
+TEST_CASE("a DS18B20 converting at fewer than 12 bits is refused: its scratchpad says so") {
+  FakeSysfs fake;
+  SimDs18b20 chip{"28-00000000cafe", 55.3};
+  chip.set_fault(SimTempFault::low_resolution);
+  chip.write_tree(fake.root.string());
+  CHECK(read_once(fake).fault == TempFault::resolution);
+  chip.set_fault(SimTempFault::none);
+  chip.write_tree(fake.root.string());
+  CHECK(read_once(fake).valid);
+}
+
+TEST_CASE("with the temperature file the resolution is read from w1_therm's resolution file") {
+  FakeSysfs fake;
+  fake.write("28-000005e2fdc3", "temperature", "55312\n");
+  fake.write("28-000005e2fdc3", "resolution", "9\n");
+  CHECK(read_once(fake, {}, W1File::temperature).fault == TempFault::resolution);
+  fake.write("28-000005e2fdc3", "resolution", "12\n");
+  CHECK(read_once(fake, {}, W1File::temperature).valid);
+  fs::remove(fake.root / "28-000005e2fdc3" / "resolution");  // kernels before 5.10: nothing to check
+  CHECK(read_once(fake, {}, W1File::temperature).valid);
 }
 
 TEST_CASE("a device named by id is read even when others come first") {

@@ -102,36 +102,49 @@ TEST_CASE("fault: ADC DRDY timeout flags the rate output invalid and puts the ra
   for (int i = 0; i < 5; ++i) rig.runner().step();
   CHECK((rig.controller().flags() & app::kFlagAdcInvalid) != 0);
   CHECK(rig.runner().counters().adc_timeouts == 5);
-  CHECK(rig.runner().counters().missed_drdy >= 5);
+  CHECK(rig.runner().counters().missed_drdy >= 5);  // missed conversions plus timeouts
   CHECK(rig.sim().rate_out_v() == Approx(rig.rate_mid_v()).margin(1e-3));  // rate DAC mid-scale: no rate
   rig.sim().inject_drdy_stall(false);
   rig.run(1.0);
   CHECK((rig.controller().flags() & app::kFlagAdcInvalid) == 0);
 }
 
-TEST_CASE("fault: DS18B20 CRC errors turn the TEC off within one PID period, then good readings recover") {
+TEST_CASE("fault: DS18B20 CRC errors hold the TEC current, then turn it off at the stale limit; good readings recover") {
   Rig rig;
   warm_up(rig);
   rig.sim().inject_casing_sensor_fault(hal::SimTempFault::crc_error);
   rig.run(1.0 + rig.pid_period_s());
+  CHECK(rig.tec_driving());  // held: a CRC glitch is no reason for a thermal step
+  CHECK((rig.take_row_flags() & app::kFlagTempInvalid) != 0);
+  rig.run(3.0 * rig.pid_period_s());  // no valid reading for more than stale_periods
   CHECK(rig.tec_off());
-  CHECK((rig.take_row_flags() & (app::kFlagTempInvalid | app::kFlagTecOff)) ==
-        (app::kFlagTempInvalid | app::kFlagTecOff));
+  CHECK((rig.take_row_flags() & (app::kFlagTempStale | app::kFlagTecOff)) ==
+        (app::kFlagTempStale | app::kFlagTecOff));
   rig.sim().inject_casing_sensor_fault(hal::SimTempFault::none);
   rig.run(3.0 + 2.0 * rig.pid_period_s());  // 3 good readings, then a tick
   CHECK(rig.tec_driving());
   CHECK((rig.controller().flags() & app::kFlagTempInvalid) == 0);
 }
 
-TEST_CASE("fault: the DS18B20 85 C power-on value is invalid: TEC off, flagged, then recovery") {
+TEST_CASE("fault: one DS18B20 85 C power-on value is flagged invalid and the TEC current is held, not cut") {
   Rig rig;
   warm_up(rig);
-  rig.sim().inject_casing_sensor_fault(hal::SimTempFault::power_on_reset);
+  rig.sim().inject_casing_sensor_fault(hal::SimTempFault::power_on_reset);  // one reading
   rig.run(1.0 + rig.pid_period_s());
-  CHECK(rig.tec_off());
-  CHECK((rig.take_row_flags() & app::kFlagTempInvalid) != 0);
+  CHECK(rig.tec_driving());
+  CHECK((rig.take_row_flags() & (app::kFlagTempInvalid | app::kFlagTecOff)) == app::kFlagTempInvalid);
   rig.run(3.0 + 2.0 * rig.pid_period_s());
   CHECK(rig.tec_driving());
+  CHECK((rig.controller().flags() & app::kFlagTempInvalid) == 0);
+}
+
+TEST_CASE("fault: a DS18B20 set to 9-bit resolution is refused as invalid, the TEC off at the stale limit") {
+  Rig rig;
+  warm_up(rig);
+  rig.sim().inject_casing_sensor_fault(hal::SimTempFault::low_resolution);
+  rig.run(1.0 + 4.0 * rig.pid_period_s());
+  CHECK(rig.tec_off());
+  CHECK((rig.take_row_flags() & app::kFlagTempInvalid) != 0);
 }
 
 TEST_CASE("fault: no casing reading for more than 3 PID periods (stale) turns the TEC off, then readings recover") {

@@ -21,7 +21,9 @@
 //   [devices.casing_sensor]      DS18B20: w1_root, id, source, stuck_after_s
 //   [devices.ambient_sensor]     optional second DS18B20, same keys
 //   [tec]                        dac_vref_v, gain_a_per_v, current_limit_a
-//   [sim]                        seed, thermal_step_s, initial_temp_c
+//   [sim]                        seed, thermal_step_s, initial_temp_c, adc_wake_min_us,
+//                                adc_wake_max_us, adc_stall_probability, adc_stall_max_us,
+//                                adc_irq_delay_max_us, adc_spi_start_max_us, adc_spi_return_max_us
 //
 // deploy/config/gyrotc-{sim,linux}.toml document every key. Other top-level
 // keys and tables belong to the daemon's loader and are left alone here;
@@ -36,6 +38,13 @@ struct SimConfig {
   // Every node of the plant (and the chamber) at power-on; unset: the
   // plant's default (PlantParams::initial_temp_c).
   std::optional<double> initial_temp_c;
+  // The simulated ADS1251 reader's environment (adc_* keys, in microseconds
+  // in the file): wake-up latency, stalls, IRQ delivery, SPI start and return.
+  // Defaults: a PREEMPT_RT Raspberry Pi 4's typical figures (cyclictest
+  // 20-120 us wake-ups; threaded GPIO IRQs; the spidev message pump).
+  hal::SimAds1251::Timing adc_timing{.wake_min_s = 20e-6, .wake_max_s = 120e-6, .stall_probability = 0.0,
+                                     .stall_max_s = 120e-6, .irq_delay_max_s = 20e-6, .spi_start_max_s = 20e-6,
+                                     .spi_return_max_s = 30e-6, .seed = 0};
 };
 
 struct BoardConfig {
@@ -47,7 +56,10 @@ struct BoardConfig {
 };
 
 // Reads hal, [devices], [tec] and [sim] from a parsed file. Throws
-// InputError "<source>:<line>: <key>: <why>" on a bad or unknown key.
+// InputError "<source>:<line>: <key>: <why>" on a bad or unknown key, and
+// when two DS18B20s are configured without both ids, or with one id for
+// both (the casing sensor could bind to the ambient one); with hal =
+// "linux" that message lists the DS18B20 ids on the casing sensor's bus.
 BoardConfig parse_board_config(const toml::table& root, const std::string& source);
 
 // A built board: exactly one of the two is set.

@@ -1,6 +1,7 @@
 #pragma once
 
 #include <cstddef>
+#include <optional>
 #include <string>
 #include <string_view>
 
@@ -12,13 +13,16 @@ namespace gyrotc::app {
 // people to read; the loader does not need it.
 struct CalibrationSource {
   std::string data;       // input file
-  std::string method;     // poly | piecewise | bpnn | paper | auto
+  std::string method;     // poly | piecewise | spline | smooth | bpnn | paper | auto
   std::string structure;  // e.g. "orders 5/5/4, breakpoints -7.5, 52.5 C"
   std::size_t points = 0;
   double in_sample_max_abs_dps = 0.0;
   double in_sample_rms_dps = 0.0;
   double loo_max_abs_dps = 0.0;
   double loo_rms_dps = 0.0;
+  // The whole choice repeated in every fold (written when computed).
+  std::optional<double> nested_loo_max_abs_dps;
+  std::optional<double> nested_loo_rms_dps;
 };
 
 struct Calibration {
@@ -28,11 +32,16 @@ struct Calibration {
 
 // Calibration file (TOML), version 1:
 //   format = "gyrotc-calibration", version = 1
-//   kind = "polynomial" | "piecewise" | "bp_network" | "paper_reference"
+//   kind = "polynomial" | "piecewise" | "spline" | "bp_network" | "paper_reference"
 //   range_c = [t_min, t_max]          (not for paper_reference)
 //   scale_mv_per_dps = 8.774          (optional)
 //   [polynomial] center_c, scale_c, coefficients_mv = [a0, a1, ...]
 //   [piecewise] breakpoints_c = [...]; [[piecewise.segment]] center_c, scale_c, coefficients_mv
+//   [spline] knots_c = [x0, x1, ...] (ascending, inside range_c), values_mv = [y0, ...],
+//       second_derivatives = [m0, ...] (mV/C^2), one of each per knot: on [x_i, x_i+1], with
+//       h = x_i+1 - x_i, a = (x_i+1 - T) / h, b = 1 - a,
+//       bias_mv = a y_i + b y_i+1 + ((a^3 - a) m_i + (b^3 - b) m_i+1) h^2 / 6
+//       (written by `gyrotc fit --method spline|smooth|auto`; the end cubics continue up to range_c)
 //   [bp_network] out_center_mv, out_half_range_mv; [[bp_network.layer]] inputs, outputs,
 //       activation ("tansig" for hidden layers, "linear" for the last), weights (row-major), biases
 //   [source] (optional, free-form information)

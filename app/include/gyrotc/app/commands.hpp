@@ -11,6 +11,7 @@ void add_identify_command(CLI::App& app);
 void add_probe_command(CLI::App& app);
 void add_fit_command(CLI::App& app);
 void add_simulate_command(CLI::App& app);
+void add_tune_command(CLI::App& app);
 void add_allan_command(CLI::App& app);
 void add_run_command(CLI::App& app);
 void add_record_command(CLI::App& app);

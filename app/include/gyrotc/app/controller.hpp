@@ -4,11 +4,13 @@
 #include <cstdint>
 
 #include "gyrotc/algorithms/control/pid.hpp"
+#include "gyrotc/algorithms/control/tec_law.hpp"
+#include "gyrotc/algorithms/control/tec_program.hpp"
 #include "gyrotc/algorithms/fit/compensator.hpp"
 #include "gyrotc/hal/devices.hpp"
 #include "gyrotc/hal/temperature_sensor.hpp"
 
-// The controller both runners share (ARCHITECTURE.md, "One controller, two
+// The controller both runners share (docs/ARCHITECTURE.md, "One controller, two
 // runners"): per-sample compensation, the 2 s PID on the TEC, and the
 // fail-safe decisions of issue 6. It knows no threads, clocks or devices: the
 // runner hands it samples, readings and ticks with their times and applies
@@ -18,7 +20,7 @@ namespace gyrotc::app {
 // Flags reported with every sample and TEC command (bitmask).
 enum ControllerFlag : std::uint32_t {
   kFlagTempStale = 1u << 0,       // no valid casing reading for > stale_periods PID periods
-  kFlagTempInvalid = 1u << 1,     // the last casing reading was invalid (CRC, 85 C reset, range)
+  kFlagTempInvalid = 1u << 1,     // an invalid casing reading (CRC, 85 C reset, range) since the last M good ones
   kFlagTempStuck = 1u << 2,       // the casing reading has not changed while the TEC drives
   kFlagOverTempLatched = 1u << 3, // casing over-temperature: TEC off until restart
   kFlagOpa548Thermal = 1u << 4,   // the OPA548 reports thermal shutdown
@@ -53,6 +55,9 @@ struct FailSafeLimits {
   double max_valid_c = 125.0;
 };
 
+// The stage's rail limit (issue 22): control/tec_law.hpp.
+using control::RailLimit;
+
 struct ControllerConfig {
   double setpoint_c = 55.0;  // seed Section 6: optimal working temperature ~55 C
   control::PidParams pid;    // seed Eq. 17/18 defaults; out_min/out_max = TEC current limits
@@ -63,6 +68,9 @@ struct ControllerConfig {
   double feed_forward_a_per_c = 0.0;
   // Setpoint ramp from the first casing reading (C/s); 0 = a step.
   double setpoint_ramp_c_per_s = 0.0;
+  // The stage's rail limit, when known; the PID's anti-windup and the current
+  // applied respect it as they do out_min/out_max.
+  RailLimit rail;
   // Rate output (AD5060 #1): mid-scale = 0 deg/s.
   double rate_dac_vref_v = 5.0;
   double rate_out_v_per_dps = 0.01;  // +/-250 deg/s over 0..5 V
@@ -101,8 +109,21 @@ class Controller {
   // The OPA548 E/S thermal flag as last read (reads false while disabled):
   // a true flag turns the TEC off for at least opa548_cooldown_s.
   void on_opa548_thermal(bool in_shutdown, double now_s) noexcept;
-  // Every PID period: fail-safe decisions, then the PID.
+  // Every PID period: fail-safe decisions, then the PID (or the programme).
+  // Invalid casing readings alone do not stop the PID: a period with no valid
+  // reading holds the last current (a CRC glitch is common on w1-gpio, and
+  // 0 A would be a thermal step into the gyro bias); once no valid reading
+  // came for stale_periods the TEC goes off, and after recovery_readings good
+  // ones the PID restarts bumplessly from where it stopped. A programme gets
+  // 0 A in any period with a sensor fault.
   TecCommand on_pid_tick(double now_s) noexcept;
+  // From the next PID period on, the programme sets the TEC current instead of
+  // the PID, under the same fail-safes and limits, until it says it is
+  // finished; then the TEC stays off. Not owned; nullptr returns to the PID.
+  // Call between PID periods (the runner's thread, or before it starts).
+  void run_program(control::TecProgram* program) noexcept;
+  // The programme has finished (the runner may stop). Any thread.
+  bool program_finished() const noexcept { return program_finished_.load(std::memory_order_acquire); }
 
   // Calibration reload: the next on_sample uses the new compensator. The
   // caller keeps the old one alive until compensator_in_use() is the new one.
@@ -126,7 +147,13 @@ class Controller {
 
   void set_flag(std::uint32_t flag, bool on) noexcept;
   void record_command(double current_a) noexcept;
-  TecCommand off(double now_s) noexcept;
+  // TEC off; resume_a is where the PID's integral restarts (if it was running).
+  TecCommand off(double now_s, double resume_a) noexcept;
+  TecCommand drive(double current_a, bool saturated, double now_s) noexcept;
+  // The current the stage can apply now: out_min/out_max within the rails.
+  control::CurrentRange applied_range() const noexcept;
+  double ambient_reading() const noexcept;  // NaN without one
+  TecCommand program_tick(double now_s) noexcept;
 
   ControllerConfig config_;
   std::atomic<const fit::Compensator*> compensator_;
@@ -159,13 +186,20 @@ class Controller {
   double opa548_off_until_s_ = 0.0;
 
   bool pid_running_ = false;
+  bool reading_since_tick_ = false;  // a valid casing reading came since the last tick
+  double resume_a_ = 0.0;            // the PID output to restart from
+  control::TecProgram* program_ = nullptr;
+  bool program_started_ = false;
+  double program_start_s_ = 0.0;
+  std::atomic<bool> program_finished_{false};
   double active_setpoint_c_;
   double last_tick_s_ = 0.0;
   TecCommand command_;
 };
 
-// One PID tick as both runners do it: the OPA548 thermal flag in (a flag that
-// cannot be read counts as a shutdown: the safe side), the controller's
+// One PID tick as both runners do it: the OPA548 thermal state in (a state
+// that cannot be read counts as a shutdown: the safe side; an unknown one,
+// without a sense line or while disabled, as none), the controller's
 // command out to the TEC stage. A current the DAC did not take leaves the TEC
 // off rather than enabled at an unknown current.
 TecCommand run_pid_tick(Controller& controller, hal::TecDriver& tec, double now_s) noexcept;

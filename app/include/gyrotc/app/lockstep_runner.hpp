@@ -2,6 +2,7 @@
 
 #include <cstdint>
 #include <functional>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -45,7 +46,9 @@ struct RecordRow {
   double casing_c = 0.0;   // true casing (plant)
   double die_c = 0.0;
   double tec_v = 0.0;
-  double tec_a = 0.0;
+  double tec_a = 0.0;               // applied by the plant (after its limits and rails)
+  double tec_command_a = 0.0;       // commanded by the controller (0 while off), as a board records it
+  double ambient_reading_c = 0.0;   // last ambient DS18B20 reading delivered (NaN: none)
   double setpoint_c = 0.0;
   double gyro_mv = 0.0;                // mean over the record period
   double rate_dps_compensated = 0.0;   // mean over the record period (valid samples)
@@ -119,6 +122,7 @@ class LockstepRunner {
   RowAccumulator row_sums_;
   bool saturated_ = false;
   double sensor_c_ = 0.0;
+  double ambient_reading_c_;
 };
 
 // --- whole runs: presets, summary ------------------------------------------
@@ -173,6 +177,12 @@ struct SimulationSetup {
   double sample_rate_hz = 1000.0;
   LockstepOptions lockstep;
   LockstepRunner::SampleHook on_sample;  // optional, see LockstepRunner::on_sample
+  // Optional: a TEC programme in the PID's place (Controller::run_program);
+  // the run ends when it finishes or the profile ends.
+  control::TecProgram* program = nullptr;
+  // The board has an ambient DS18B20 when the controller uses one (feed-
+  // forward) or a programme runs (it records the ambient), unless set here.
+  std::optional<bool> ambient_sensor;
 };
 
 struct SimulationResult {
@@ -185,6 +195,12 @@ struct SimulationResult {
 // tec_a, setpoint_c, gyro_mv, rate_dps_compensated, flags (the format
 // `gyrotc fit` and `gyrotc identify` read). RuntimeFailure on a write error.
 void write_records_csv(const std::vector<RecordRow>& rows, const std::string& path);
+
+// Writes rows as the board's `gyrotc record` writes them (kRecordCsvHeader of
+// daemon/session.hpp): time_s, sensor_c, ambient_c (the ambient reading),
+// gyro_mv, rate_dps_compensated, tec_a (commanded), setpoint_c, flags; no
+// true temperature of the plant. RuntimeFailure on a write error.
+void write_board_record_csv(const std::vector<RecordRow>& rows, const std::string& path);
 
 // Builds a lockstep SimBoard (plant starting at the profile's first ambient),
 // the Controller and the runner, runs the whole profile and summarises it.

@@ -19,11 +19,14 @@ class GpioLine {
   Status set(bool high) noexcept { return do_set(high); }
   // The level of the line.
   Result<bool> get() noexcept { return do_get(); }
-  // Block until the next `edge` (others are skipped) or until timeout_s has
-  // passed (ErrorCode::timeout). Returns the monotonic time of the edge, s.
+  // The oldest queued edge event of kind `edge` (others before it are
+  // dropped), waiting at most timeout_s for one (ErrorCode::timeout). Events
+  // queue as the kernel's do, from the line's request on: one queued long
+  // ago comes back at once. Returns the CLOCK_MONOTONIC time of the edge
+  // itself (the event's stamp, however old), s.
   Result<double> wait_edge(Edge edge, double timeout_s) noexcept { return do_wait_edge(edge, timeout_s); }
-  // Drop every edge event queued so far, without blocking; returns how many
-  // were dropped. A line not requested for edge events has none.
+  // Drop every edge event readable so far, without blocking; returns how
+  // many were dropped. A line not requested for edge events has none.
   Result<int> discard_edges() noexcept { return do_discard_edges(); }
   // Chip and line, for messages.
   std::string_view name() const noexcept { return do_name(); }

@@ -21,6 +21,7 @@ enum class ErrorCode : std::uint8_t {
   invalid_config, // a configuration that cannot work (and why)
   bad_data,       // a device answered, but with nonsense
   fault,          // a device reports a fault (or one was injected)
+  busy,           // another process holds the device (ours must not touch it)
 };
 
 std::string_view to_string(ErrorCode code);

@@ -18,6 +18,8 @@ enum class TempFault : std::uint8_t {
   stuck,           // unchanged for longer than allowed
   parse_error,     // the file did not have the kernel's format
   io_error,        // any other read failure
+  resolution,      // converting at fewer than 12 bits (coarser steps than the loop is tuned for)
+  ambiguous,       // no id configured and several DS18B20s on the bus
 };
 
 std::string_view to_string(TempFault fault);

@@ -13,6 +13,7 @@ namespace gyrotc::hal {
 enum class W1File : std::uint8_t {
   w1_slave,     // "xx xx .. xx : crc=xx YES|NO\nxx xx .. xx t=<millidegrees>\n"
   temperature,  // "<millidegrees>\n"
+  resolution,   // "<bits>\n" (w1_therm since Linux 5.10): 9..12
 };
 
 // One 1-Wire device's files: W1Sysfs reads them from sysfs, the simulator

@@ -39,6 +39,7 @@ struct V2Dir {
   std::vector<std::string> names;
   std::size_t next = 0;
   dirent entry{};
+  dirent64 entry64{};
 };
 
 std::set<const void*>& live() {
@@ -121,6 +122,7 @@ gpiod_edge_event* __real_gpiod_edge_event_buffer_get_event(gpiod_edge_event_buff
 uint64_t __real_gpiod_edge_event_get_timestamp_ns(gpiod_edge_event* event);
 DIR* __real_opendir(const char* path);
 dirent* __real_readdir(DIR* dir);
+dirent64* __real_readdir64(DIR* dir);
 int __real_closedir(DIR* dir);
 
 gpiod_chip* __wrap_gpiod_chip_open(const char* path) {
@@ -302,6 +304,16 @@ dirent* __wrap_readdir(DIR* d) {
   if (dir->next == dir->names.size()) return nullptr;
   std::snprintf(dir->entry.d_name, sizeof dir->entry.d_name, "%s", dir->names[dir->next++].c_str());
   return &dir->entry;
+}
+
+// With _FILE_OFFSET_BITS=64, glibc's <dirent.h> makes readdir() readdir64()
+// (since 2.39 on 64-bit targets too): a fake folder must answer both.
+dirent64* __wrap_readdir64(DIR* d) {
+  if (!is_fake(d)) return __real_readdir64(d);
+  auto* dir = reinterpret_cast<V2Dir*>(d);
+  if (dir->next == dir->names.size()) return nullptr;
+  std::snprintf(dir->entry64.d_name, sizeof dir->entry64.d_name, "%s", dir->names[dir->next++].c_str());
+  return &dir->entry64;
 }
 
 int __wrap_closedir(DIR* d) {

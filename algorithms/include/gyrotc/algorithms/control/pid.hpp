@@ -44,7 +44,12 @@ void validate(const PidParams& params);
 // than the setpoint (e < 0) therefore drives the output up (heat).
 //
 // Saturation and anti-windup. The recurrence runs on an internal, unclamped
-// state v; the output is v clamped to [out_min, out_max]. v is exactly the
+// state v; the output is v clamped to the limits of that step: [out_min,
+// out_max], or the limits the caller passes for the step. A caller that adds
+// a feed-forward ff to the output and clamps the sum to the TEC's limits
+// [lo, hi] (which may move with the OPA548's rail limit) passes [lo - ff,
+// hi - ff], so that saturation and anti-windup refer to the current actually
+// applied, not to the PID's share of it (issue 22). v is exactly the
 // positional PID  -(Kp e + KD (e(k) - e(k-1))) + I  computed incrementally, so
 // its proportional and derivative parts can never wind up (they are functions
 // of the current error). Only the integral can, and it is stopped by
@@ -64,8 +69,12 @@ class IncrementalPid {
  public:
   explicit IncrementalPid(const PidParams& params);
 
-  // One control period: returns the new output (positive heats).
+  // One control period: returns the new output (positive heats), within
+  // [out_min, out_max] of the parameters.
   double step(double measured, double setpoint) noexcept;
+  // The same within [out_min, out_max] for this step only (out_max below
+  // out_min is taken as out_min).
+  double step(double measured, double setpoint, double out_min, double out_max) noexcept;
   // Clears the error history; the integral part restarts at `output` (clamped
   // to the output limits).
   void reset(double output = 0.0) noexcept;

@@ -33,6 +33,27 @@ struct Piecewise {
   std::vector<Polynomial> segments;
 };
 
+// A cubic spline: on each interval [x_i, x_{i+1}] of the knots, with
+// h = x_{i+1} - x_i, a = (x_{i+1} - T) / h and b = 1 - a,
+//   bias_mv = a y_i + b y_{i+1} + ((a^3 - a) m_i + (b^3 - b) m_{i+1}) h^2 / 6,
+// the cubic with values y and second derivatives m at the interval's ends, so
+// the curve and its first two derivatives are continuous at every knot. Both
+// spline fits store this form: the interpolating one (not-a-knot ends) and the
+// penalised smoothing one (natural ends, m = 0 at the end knots). Between a
+// range end and the nearest knot (a leave-one-out fold without an end point)
+// the end interval's cubic continues.
+struct Spline {
+  std::vector<double> knots_c;              // strictly ascending, at least 2
+  std::vector<double> values_mv;            // y, one per knot
+  std::vector<double> second_derivatives;   // m, mV/C^2, one per knot
+  double t_min_c = 0.0;                     // <= knots_c.front()
+  double t_max_c = 0.0;                     // >= knots_c.back()
+};
+
+// The spline at temp_c (no range clamping), no allocation: a binary search
+// for the interval and one cubic.
+double evaluate(const Spline& spline, double temp_c) noexcept;
+
 // One layer of a BP network: out = f(W in + b), W row-major (outputs x inputs).
 struct NetworkLayer {
   int inputs = 0;
@@ -67,27 +88,28 @@ double evaluate(const BpNetwork& net, double temp_c) noexcept;
 
 // Zero-bias temperature model: the gyro's zero-rate output (mV) as a function
 // of the casing temperature. A value type holding one of the seed's three
-// model kinds, or the seed's own printed piecewise coefficients.
+// model kinds, a cubic spline, or the seed's own printed piecewise coefficients.
 //
 // Outside the calibrated range [t_min_c, t_max_c] the model is evaluated at the
 // nearest end of the range (clamping): polynomials extrapolate badly, and the
 // Compensator reports the clamp as a flag.
 class BiasModel {
  public:
-  enum class Kind { polynomial, piecewise, bp_network, paper_reference };
+  enum class Kind { polynomial, piecewise, bp_network, paper_reference, spline };
 
   // Each factory validates its argument and throws std::invalid_argument
   // naming the offending field (e.g. "segments[1].coefficients_mv").
   static BiasModel polynomial(Polynomial poly);
   static BiasModel piecewise(Piecewise pw);
   static BiasModel bp_network(BpNetwork net);
+  static BiasModel spline(Spline spline);
   // The seed's printed piecewise polynomial (Section 4.2, breakpoints -20 and
   // 50 C, orders 4/3/4), with the erratum of data/README.md (middle segment:
   // signs of a0 and a3 flipped). Reproduces Table 2 within 1.56 mV.
   static BiasModel paper_reference();
 
   Kind kind() const noexcept { return kind_; }
-  // "polynomial", "piecewise", "bp_network", "paper_reference".
+  // "polynomial", "piecewise", "bp_network", "paper_reference", "spline".
   std::string_view kind_name() const noexcept;
 
   // Zero-rate output (mV) at temp_c, clamped to the calibrated range. No allocation.
@@ -101,13 +123,14 @@ class BiasModel {
   const Polynomial* as_polynomial() const noexcept { return std::get_if<Polynomial>(&model_); }
   const Piecewise* as_piecewise() const noexcept { return std::get_if<Piecewise>(&model_); }
   const BpNetwork* as_bp_network() const noexcept { return std::get_if<BpNetwork>(&model_); }
+  const Spline* as_spline() const noexcept { return std::get_if<Spline>(&model_); }
 
  private:
-  BiasModel(Kind kind, std::variant<Polynomial, Piecewise, BpNetwork> model, double t_min_c,
+  BiasModel(Kind kind, std::variant<Polynomial, Piecewise, BpNetwork, Spline> model, double t_min_c,
             double t_max_c);
 
   Kind kind_;
-  std::variant<Polynomial, Piecewise, BpNetwork> model_;
+  std::variant<Polynomial, Piecewise, BpNetwork, Spline> model_;
   double t_min_c_;
   double t_max_c_;
 };

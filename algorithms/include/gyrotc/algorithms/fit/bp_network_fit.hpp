@@ -1,5 +1,6 @@
 #pragma once
 
+#include <cstddef>
 #include <cstdint>
 #include <span>
 #include <string>
@@ -14,11 +15,14 @@ namespace gyrotc::fit {
 // trainlm's defaults where the seed names none.
 struct BpTrainOptions {
   std::vector<int> hidden = {10, 10, 10};  // Section 4.1: three hidden layers of ten neurons
-  std::uint64_t seed = 1;                   // initial weights and the validation split
-  // Independent trainings from successive seeds; the one with the lowest
-  // error over all points (training and validation) is kept. Guards against
-  // an unlucky start of an over-parameterised network (3 x 10 has 251
-  // parameters for Table 2's 25 points).
+  std::uint64_t seed = 1;                   // the validation split and the restarts' initial weights
+  // Trainings from different initial weights on the same validation split;
+  // the one with the lowest error on the held-out points is kept (the
+  // training error when validation_fraction is 0). Guards against an unlucky
+  // start of an over-parameterised network (3 x 10 has 251 parameters for
+  // Table 2's 25 points) without letting the held-out points into the fit:
+  // judged on all points, the restart that fits the training points hardest
+  // would win, undoing the early stopping.
   int restarts = 3;
   int max_epochs = 300;
   double goal_mse = 1e-4;                   // Section 4.1: training goal 0.0001 (normalised outputs)
@@ -36,9 +40,10 @@ struct BpTrainOptions {
 struct BpTrainResult {
   BpNetwork net;
   int epochs = 0;                // of the kept training
-  std::uint64_t seed_used = 0;   // seed of the kept training
+  std::uint64_t seed_used = 0;   // initial-weights seed of the kept training
   double train_mse = 0.0;       // normalised units
   double validation_mse = 0.0;  // normalised units; 0 without a validation split
+  std::size_t validation_points = 0;  // held out for early stopping and the choice of restart
   std::string stop_reason;      // "goal", "validation", "max_epochs", "mu_max"
 };
 

@@ -31,6 +31,26 @@ struct FitErrors {
   double loo_rms = 0.0;
 };
 
+// A candidate's leave-one-out score: its effective number of parameters,
+// the mean squared LOO residual and that mean's standard error
+// (sd of the squared residuals / sqrt(n)).
+struct CvScore {
+  double dof = 0.0;
+  double mse = 0.0;
+  double se = 0.0;
+};
+
+CvScore cv_score(double dof, std::span<const double> loo_residuals);
+
+// The one-standard-error rule (Breiman et al. 1984, Section 3.4.3; Hastie,
+// Tibshirani & Friedman, Section 7.10): of the candidates whose LOO mean
+// square lies within one standard error of the smallest, the one with the
+// fewest effective parameters (then the smaller mean square). Differences
+// inside that band are what the points cannot tell apart, and the simpler
+// candidate is the less likely to owe its score to the noise. Returns the
+// candidate's index; throws std::invalid_argument for an empty list.
+std::size_t one_standard_error_choice(std::span<const CvScore> scores);
+
 FitErrors fit_errors(std::span<const double> in_sample_residuals, std::span<const double> loo_residuals);
 
 }  // namespace gyrotc::fit

@@ -12,18 +12,28 @@ namespace gyrotc::identify {
 // Thresholds of the decision. The defaults were fixed on the training seeds
 // of tools/identify_sweep (docs/IDENTIFY.md) and are reported on other seeds.
 struct Criteria {
-  // BIC improvement (with the effective sample size) an effect must bring.
-  double min_delta_bic = 25.0;
-  // |parameter| / standard error of the effect's amplitude.
+  // p-value of the nested-model test an effect must reach: on time series
+  // the likelihood ratio of the fits with white + wander noise (corrected by
+  // the long-run variance), on static tables the F-test. A fixed p-value
+  // makes the improvement demanded scale with the number of independent
+  // samples; each was calibrated on simulated records of its kind.
+  double max_p_value = 1e-5;
+  double max_p_value_table = 1e-3;
+  // |parameter| / standard error of the effect's amplitude (time series;
+  // on tables the F-test is the amplitude's test).
   double min_t_ratio = 4.0;
   // Held-out (blocked cross-validation) sum of squares must fall by this
   // fraction, and in at least min_folds_improved of the folds.
   double min_cv_gain = 0.02;
   int min_folds_improved = 3;
-  // Two passing candidates closer than this in BIC, or whose added signals
-  // correlate more than max_signal_correlation, are reported as ambiguous.
+  // Two passing candidates are reported as ambiguous when they are closer
+  // than this in BIC, or their added signals correlate more than
+  // max_signal_correlation, or the held-out error of the runner-up is not
+  // worse than the best's by ambiguous_heldout_z standard errors (paired
+  // over the held-out units: CV blocks, table points).
   double ambiguous_delta_bic = 30.0;
   double max_signal_correlation = 0.999;
+  double ambiguous_heldout_z = 2.0;
 };
 
 struct EffectParam {
@@ -46,6 +56,10 @@ struct CandidateScore {
   int round = 0;
   std::string effect;
   double delta_bic = 0.0;
+  double p_value = 1.0;  // of the nested-model test
+  // Series: the long-run variance factor of the amplitude (1 = no serial
+  // correlation left); the p-value and t-ratio are corrected by it.
+  double long_run_factor = 1.0;
   double cv_gain = 0.0;  // fractional fall of the held-out sum of squares
   int folds_improved = 0;
   double t_ratio = 0.0;
@@ -84,7 +98,14 @@ struct Identification {
   std::vector<SignalCorrelation> correlations;  // time series only
   std::vector<AddedEffect> added;
   std::vector<CandidateScore> tried;
-  std::string verdict;  // effect | a+b | none | ambiguous:a+b
+  // effect | a+b | none | ambiguous:a+b | unexplained | a+unexplained
+  // ("unexplained": a generic probe found structure no library effect explains).
+  std::string verdict;
+  // The verdict in words: "consistent with thermal_lag", "no structure
+  // beyond the baseline and its noise", "none of the library's effects
+  // explains the residual (...)".
+  std::string statement;
+  std::vector<std::string> unexplained;  // the probes that passed
   std::string note;     // why candidates were not tried (empty when all were)
 
   double final_rms = 0.0;

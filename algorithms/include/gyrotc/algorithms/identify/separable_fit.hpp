@@ -39,11 +39,26 @@ struct SeparableFit {
 // with several nonlinear parameters.
 std::vector<std::vector<double>> grid_product(const std::vector<std::vector<double>>& axes);
 
+// A^T A from the non-zeros of each row: the spline columns of a design are
+// zero but for 4 per row, so this costs O(rows * nnz^2) instead of
+// O(rows * cols^2), the difference between seconds and minutes on a day's
+// record (and in Debug builds).
+Eigen::MatrixXd gram_matrix(const Eigen::MatrixXd& design);
+
 // Linear LS of y on design (columns scaled internally, tiny ridge so that
 // empty spline intervals do not break the solve). Returns beta.
 Eigen::VectorXd solve_linear(const Eigen::MatrixXd& design, const Eigen::VectorXd& y);
 
 SeparableFit fit_separable(const Eigen::VectorXd& y, const SeparableModel& model);
+
+// The Jacobian [design, d prediction / d theta] of the model at theta with
+// linear parameters beta (finite steps kept inside the bounds); *at_bound is
+// set when a theta lies within 1e-4 of its range from a bound.
+Eigen::MatrixXd model_jacobian(const SeparableModel& model, const std::vector<double>& theta,
+                               const Eigen::VectorXd& beta, bool* at_bound = nullptr);
+
+// (J^T J)^-1 with columns scaled to unit norm and a tiny ridge.
+Eigen::MatrixXd inverse_normal(const Eigen::MatrixXd& jacobian);
 
 // Only the linear part, theta fixed: for cross-validation refits.
 Eigen::VectorXd predict_with_theta(const Eigen::VectorXd& y, const SeparableModel& model,

@@ -11,19 +11,24 @@
 // chamber and the TEC drive.
 //
 // gyro_mv baseline: the bias is a flexible function of the sensor
-// temperature (cubic B-spline, number of knots chosen by BIC), calibrated to
-// the record, so that only what a curve in T cannot absorb is left.
-// Candidates: thermal_lag, rate_sensitivity, ramp_hysteresis, warm_up,
-// linear_drift (model/effects.hpp). T is the sensor reading smoothed over
-// `smooth_s` (centred, no lag) and dT/dt its centred difference.
+// temperature (cubic B-spline, one interval per 2 C), calibrated to the
+// record, so that only what a curve in T cannot absorb is left; the noise is
+// white plus a slow Gauss-Markov wander of the bias (wander_noise.hpp).
+// Candidates: thermal_lag, rate_sensitivity, ramp_hysteresis,
+// ambient_sensitivity, warm_up, linear_drift (model/effects.hpp). T is the
+// sensor reading smoothed over `smooth_s` (centred, no lag) and dT/dt its
+// centred difference.
 //
 // sensor_c baseline: one-node RC casing, T = a*L[ambient] + g*L[tec_a] +
 // c + e*exp(-t/tau) with L the unit-gain first-order lag of time constant
 // tau (fitted). Candidate: tec_joule_heating (+ k*L[tec_a^2]; r_ohm = 2 k /
 // r_th, with r_th the casing-to-ambient thermal resistance given).
 //
-// Long records are averaged into at most max_bins equal time bins before
+// The record is averaged into at most max_bins equal time bins before
 // fitting (thermal effects are slow); cost is linear in the record length.
+// Samples may come at any spacing. A step longer than gap_s is a gap: the
+// temperatures are interpolated across it (so the lags run on), its bins are
+// not fitted, nor those within settle_s after it.
 namespace gyrotc::identify {
 
 struct SeriesRecord {
@@ -44,12 +49,18 @@ struct SeriesOptions {
   // (the plant's die capacity / casing-die conductance); 0 takes the sensor
   // temperature as the die's. Effects then act on top of it, as in the plant.
   double base_die_tau_s = 0.0;
+  double gap_s = 60.0;
+  double settle_s = 600.0;
 };
 
 enum class SeriesTarget { gyro_mv, sensor_c };
 
-// Throws std::invalid_argument for records that are too short, not
-// increasing in time, or lack the columns the target needs.
+// Throws std::invalid_argument (a one-line reason) for records that are too
+// short, not increasing in time, lack the columns the target needs, are
+// sampled too coarsely for dT/dt (fewer than 3 samples per smooth_s), are
+// mostly gaps (less than half the span or fewer than 200 bins left to fit),
+// or (sensor_c) have a gap longer than settle_s, across which the casing
+// model cannot carry its state.
 Identification identify_series(const SeriesRecord& record, SeriesTarget target,
                                const SeriesOptions& options = {}, const Criteria& criteria = {},
                                const std::function<void(double)>& progress = {});

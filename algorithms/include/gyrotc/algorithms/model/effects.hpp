@@ -18,6 +18,9 @@
 //   ramp_hysteresis   bias += h_mv * tanh((dT/dt) / r0_c_per_s)
 //   warm_up           bias += a_mv * exp(-t / tau_s)      (seed Section 3, Figure 9)
 //   linear_drift      bias += d_mv_per_h * t / 3600
+//   ambient_sensitivity bias += k_mv_per_c * (T_ambient - ref_c): a readout
+//                     (or package stress) that follows the surroundings
+//                     rather than the casing the TEC controls
 // On the casing heat balance:
 //   tec_joule_heating the casing receives I^2 * r_ohm / 2 (half the TEC's
 //                     Joule heat) in addition to the base model's heat flows.
@@ -40,6 +43,12 @@ struct WarmUpEffect {
 struct LinearDriftEffect {
   double d_mv_per_h = 0.0;
 };
+// Reference ambient of ambient_sensitivity: where it adds nothing.
+inline constexpr double kAmbientReferenceC = 25.0;
+struct AmbientSensitivityEffect {
+  double k_mv_per_c = 0.0;
+  double ref_c = kAmbientReferenceC;
+};
 struct TecJouleHeatingEffect {
   double r_ohm = 0.0;
 };
@@ -50,6 +59,7 @@ struct Effects {
   std::optional<RampHysteresisEffect> ramp_hysteresis;
   std::optional<WarmUpEffect> warm_up;
   std::optional<LinearDriftEffect> linear_drift;
+  std::optional<AmbientSensitivityEffect> ambient_sensitivity;
   std::optional<TecJouleHeatingEffect> tec_joule_heating;
 
   bool any() const noexcept;
@@ -57,9 +67,9 @@ struct Effects {
 };
 
 // The names as they appear in verdicts and plant files, in library order.
-inline constexpr std::array<std::string_view, 6> kTimeSeriesEffectNames = {
-    "thermal_lag", "rate_sensitivity", "ramp_hysteresis",
-    "warm_up",     "linear_drift",     "tec_joule_heating"};
+inline constexpr std::array<std::string_view, 7> kTimeSeriesEffectNames = {
+    "thermal_lag", "rate_sensitivity", "ramp_hysteresis",     "warm_up",
+    "linear_drift", "ambient_sensitivity", "tec_joule_heating"};
 
 // Heat (W) the tec_joule_heating effect adds to the casing at TEC current
 // tec_a: I^2 R / 2; 0 when the effect is off.
@@ -75,6 +85,9 @@ class GyroEffectState {
 
   // Power-on: t = 0, the die at temp_c, no temperature rate.
   void reset(double temp_c) noexcept;
+  // The ambient (chamber) temperature now; until set, ambient_sensitivity
+  // sees its reference (adds nothing).
+  void set_ambient_c(double ambient_c) noexcept { ambient_c_ = ambient_c; }
   // The run advanced by dt_s and the temperature is now temp_c. dT/dt is the
   // step's finite difference (the plant's temperature is noise-free).
   void advance(double dt_s, double temp_c) noexcept;
@@ -85,7 +98,7 @@ class GyroEffectState {
   // T_die with thermal_lag on, else the temperature itself.
   double bias_temp_c() const noexcept;
   // Sum of the additive terms (rate_sensitivity, ramp_hysteresis, warm_up,
-  // linear_drift), mV.
+  // linear_drift, ambient_sensitivity), mV.
   double extra_bias_mv() const noexcept;
 
  private:
@@ -94,6 +107,7 @@ class GyroEffectState {
   double temp_c_ = 0.0;
   double die_c_ = 0.0;
   double rate_c_per_s_ = 0.0;
+  double ambient_c_ = kAmbientReferenceC;
 };
 
 }  // namespace gyrotc::model

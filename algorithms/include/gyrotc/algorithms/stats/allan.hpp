@@ -1,52 +1,107 @@
 #pragma once
 
+#include <array>
 #include <cstddef>
 #include <span>
+#include <string_view>
 #include <vector>
 
 // Overlapping Allan deviation (IEEE Std 952-1997, Annex C) of a rate record
-// sampled at a constant rate, and the standard noise coefficients read from
-// it: angle random walk N, bias instability B, rate random walk K.
+// sampled at a constant rate, and the standard noise terms fitted to it with
+// their uncertainties: quantisation Q, angle random walk N, bias instability
+// B, rate random walk K and rate ramp R.
 namespace gyrotc::stats {
+
+// The terms of the Allan variance model (IEEE 952 Annex C.2):
+//   AVAR(tau) = 3 Q^2 / tau^2 + N^2 / tau + (2 ln 2 / pi) B^2 + K^2 tau / 3 + R^2 tau^2 / 2.
+enum class NoiseTerm { quantisation, angle_random_walk, bias_instability, rate_random_walk, rate_ramp };
+inline constexpr std::size_t kNoiseTerms = 5;
+inline constexpr std::array<NoiseTerm, kNoiseTerms> kAllNoiseTerms = {
+    NoiseTerm::quantisation, NoiseTerm::angle_random_walk, NoiseTerm::bias_instability,
+    NoiseTerm::rate_random_walk, NoiseTerm::rate_ramp};
+
+// "quantisation", "angle_random_walk", "bias_instability", "rate_random_walk", "rate_ramp".
+std::string_view noise_term_name(NoiseTerm term);
+// The power of tau of the term's Allan variance: -2, -1, 0, 1, 2.
+int noise_term_power(NoiseTerm term);
+// The term's Allan-variance coefficient c (AVAR = c tau^power) for a
+// coefficient value (Q, N, B, K or R), and back.
+double avar_coefficient(NoiseTerm term, double value);
+double term_value(NoiseTerm term, double avar_coefficient);
 
 struct AllanOptions {
   // Cluster times are log-spaced: round(10^(k / points_per_decade)) samples,
   // duplicates dropped. 10 per decade is finer than the octave (3.3 per decade).
   double points_per_decade = 10.0;
-  // The N, B and K fits use only cluster times with at least this many
-  // independent clusters (n / m): 30 keeps the 1-sigma relative error of each
-  // point used <= 1 / sqrt(2 * 29) = 13 %.
-  double fit_min_clusters = 30.0;
+  // The fit uses the cluster times of a coarser grid (a subset of the one
+  // above): neighbours an octave apart still correlate 0.7-0.95, so the
+  // finer grid adds little information and costs O(points^3) per step.
+  double fit_points_per_decade = 5.0;
+  // Confidence of the reported intervals (of each point and each term).
+  double confidence = 0.95;
+  // How far a record's Allan variance may depart from the five power laws
+  // without the fit chasing it: a relative standard deviation, correlated
+  // over half a decade of tau, added to the estimates' own. Real spectra are
+  // not exact power laws (filters, the sampling, 1/f noise that is 1/f only
+  // over some decades), and estimates with EDF 10^5 would otherwise claim a
+  // precision of 0.3 %. 2 % is an assumption, stated in docs/ALLAN.md.
+  double model_discrepancy = 0.02;
+  // The fit leaves out the cluster times whose estimate would have fewer
+  // EDF than this for a random walk of the rate (the fewest of the noise
+  // types): the last few, with one or two clusters.
+  double min_edf = 2.0;
+  // Information criterion: a term is kept when it lowers -2 log L by more
+  // than this (6.63 = the 1 % point of chi^2 with one degree of freedom).
+  double term_penalty = 6.63;
 };
 
 struct AllanPoint {
   double tau_s = 0.0;
-  std::size_t m = 0;           // cluster size in samples
-  double adev = 0.0;           // units of the input rate
-  double ci_low = 0.0;         // adev * (1 - e), clamped at 0
-  double ci_high = 0.0;        // adev * (1 + e)
-  double clusters = 0.0;       // n / m independent clusters
+  std::size_t m = 0;      // cluster size in samples
+  double adev = 0.0;      // units of the input rate
+  double edf = 0.0;       // equivalent degrees of freedom of the estimate under the fitted noise mixture
+  double ci_low = 0.0;    // confidence interval of the deviation (chi-square with edf)
+  double ci_high = 0.0;
+  double clusters = 0.0;  // n / m
 };
 
-// A noise term's slope line in log-log: adev = value_at_ref * (tau / ref_tau_s)^slope.
-struct SlopeLine {
-  double slope = 0.0;
-  double ref_tau_s = 0.0;
-  double value_at_ref = 0.0;   // N (at 1 s) or K (at 3 s); B: the minimum / 0.664
-  bool valid = false;          // false when no point had enough clusters
+// One noise term of the fit.
+struct TermEstimate {
+  // Resolved: the best model has the term and every model without it is
+  // worse by more than the term penalty. Otherwise the term is "not
+  // resolved": absent from the record, or not told apart from another term
+  // (a rate random walk that a short record shows as flat, say).
+  bool included = false;
+  double value = 0.0;     // Q (u s), N (u sqrt(s)), B (u), K (u / sqrt(s)), R (u / s); 0 when not included
+  // Confidence interval of the value: its interval in the best model,
+  // widened to those of every model with the term whose criterion is within
+  // the term penalty of the best (the models the data do not tell apart).
+  double ci_low = 0.0;
+  double ci_high = 0.0;
+  double relative_se = 0.0;  // standard error of the AVAR coefficient / the coefficient, best model
+  // Not resolved: the upper end of the term's interval over the best-scoring
+  // model that has it and those within the penalty of the best (0 when no
+  // model with the term could be fitted).
+  double upper_bound = 0.0;
+};
+
+struct NoiseFit {
+  std::array<TermEstimate, kNoiseTerms> terms{};
+  double log_likelihood = 0.0;  // of the chosen model
+  double criterion = 0.0;       // -2 log L + penalty per term
+  std::size_t models_compared = 0;
+  bool valid = false;           // false when no model could be fitted (too few points)
+
+  const TermEstimate& term(NoiseTerm t) const { return terms[static_cast<std::size_t>(t)]; }
+  // The model's Allan variance at tau.
+  double avar(double tau_s) const;
 };
 
 struct AllanResult {
   std::size_t samples = 0;
   double rate_hz = 0.0;
   std::vector<AllanPoint> points;
-  // N: slope -1/2 line read at tau = 1 s (units * sqrt(s), e.g. deg/sqrt(s)).
-  SlopeLine arw;
-  // B: flat minimum / 0.664 (= sqrt(2 ln 2 / pi), IEEE 952 C.1.3), units of the rate;
-  // ref_tau_s is where the minimum lies.
-  SlopeLine bias_instability;
-  // K: slope +1/2 line read at tau = 3 s (units / sqrt(s)).
-  SlopeLine rrw;
+  NoiseFit fit;
 };
 
 // Overlapping Allan deviation at the log-spaced cluster sizes 1 .. n/2, each
@@ -57,23 +112,35 @@ struct AllanResult {
 // The record's mean is removed first: it does not change AVAR and keeps the
 // cumulative sum small, so the differences keep their precision.
 //
-// Confidence interval: the simple 1-sigma relative error of an Allan deviation
-// estimated from K = n/m independent clusters, e = 1 / sqrt(2 (K - 1))
-// (IEEE 952 Eq. C.8, after Lesage & Audoin 1973 for white frequency noise);
-// it is exact for white noise and optimistic for random walk, whose
-// overlapping estimate has fewer degrees of freedom.
-//
-// Fits: weighted non-negative least squares of the Allan variance to the sum
-// of the standard terms, AVAR = Q2/tau^2 + N^2/tau + F + K^2 tau/3 + R2 tau^2
-// (IEEE 952 Annex C.2), over the points with at least fit_min_clusters
-// clusters. N is then the slope -1/2 line's value at tau = 1 s and K the slope
-// +1/2 line's at tau = 3 s (the graphical reading, without its sensitivity to
-// one noisy point); B = the curve's minimum (same points) / 0.664. A term the
-// record does not show fits as 0.
+// Then fit_noise_terms, and each point's interval from the chi-square
+// distribution with the EDF of the fitted noise mixture at its tau.
 //
 // Throws std::invalid_argument for fewer than 2 samples, a non-positive or
 // non-finite rate_hz, or a non-finite sample.
 AllanResult allan_deviation(std::span<const double> rate, double rate_hz, const AllanOptions& options = {});
+
+// Fits the terms to the points of a record of `samples` samples at rate_hz
+// over every cluster time. The logarithms of the estimates are taken as
+// jointly normal: each ln(AVAR chi^2_nu / nu) with nu its EDF under the
+// model's mixture of noise types (mean ln AVAR + psi(nu/2) - ln(nu/2),
+// variance psi'(nu/2)), correlated across cluster times as the model's
+// covariance of the estimates says (allan_covariance.hpp), plus the model
+// discrepancy of the options. Every subset of
+// the five terms is fitted by maximum likelihood (Gauss-Newton in the
+// logarithms of the coefficients, so they stay positive); the subset with
+// the least criterion wins; a term is reported only when the data support
+// it against every model without it. Each coefficient's standard error
+// comes from the Fisher information; its interval is log-normal. The ramp's
+// interval also holds the trend a rate random walk leaves in the record,
+// K sqrt(6 / (5 T)) (the Allan variance cannot tell the two apart).
+NoiseFit fit_noise_terms(std::span<const AllanPoint> points, std::size_t samples, double rate_hz,
+                         const AllanOptions& options = {});
+
+// EDF of the Allan variance estimate at cluster size m (tau = m tau0) of a
+// record of `samples` samples under the fitted mixture of noise types:
+// 1/nu = sum_j (share_j^2 / nu_j) over the random terms (the ramp adds no
+// estimation variance), each nu_j by Greenhall's algorithm.
+double mixture_edf(const NoiseFit& fit, double tau_s, std::size_t m, std::size_t samples);
 
 // The cluster sizes used for n samples: log-spaced, 1 .. n/2.
 std::vector<std::size_t> allan_cluster_sizes(std::size_t n, double points_per_decade);

@@ -13,7 +13,10 @@
 //
 //   [control]      setpoint_c, kp, ki, kd, period_s, xi_c, out_min_a, out_max_a,
 //                  pid, feed_forward_a_per_c, setpoint_ramp_c_per_s,
-//                  rate_out_v_per_dps, sensor_period_s
+//                  rate_out_v_per_dps, sensor_period_s, controller_file (a
+//                  `gyrotc tune` controller file, relative to this file; it
+//                  sets setpoint, gains, period, xi, feed-forward, ramp, rail
+//                  and stuck drive, which [control] then must not give)
 //   [calibration]  file ("" = the seed's reference model)
 //   [output]       stream ("stdout" | "file" | "serial" | "none"), path, baud,
 //                  period_s, record_csv, status_interval_s, write_timeout_s
@@ -42,13 +45,19 @@ struct DaemonConfig {
   ControllerConfig controller;
   double sensor_period_s = 1.0;  // one DS18B20 conversion per period
   std::string calibration_file;  // absolute or relative to the working directory; "" = seed model
+  std::string controller_file;   // the controller file in use; "" = [control]
   OutputConfig output;
   RealtimeOptions realtime;
 };
 
 DaemonConfig parse_daemon_config(const toml::table& root, const std::string& source);
-// Reads and parses path. A relative calibration file is taken relative to the
-// configuration file's directory.
+// Reads and parses path. A relative calibration or controller file is taken
+// relative to the configuration file's directory.
 DaemonConfig load_daemon_config(const std::string& path);
+
+// The controller of a `gyrotc tune` controller file in place of [control]'s
+// (the TEC limits, the rate output and the other fail-safes stay). InputError
+// naming the file.
+void use_controller_file(DaemonConfig& config, const std::string& path);
 
 }  // namespace gyrotc::app

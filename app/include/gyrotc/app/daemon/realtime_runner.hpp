@@ -14,7 +14,7 @@
 #include "gyrotc/app/daemon/spsc_ring.hpp"
 #include "gyrotc/hal/board.hpp"
 
-// The real-time runner (ARCHITECTURE.md, "One controller, two runners"): the
+// The real-time runner (docs/ARCHITECTURE.md, "One controller, two runners"): the
 // same Controller as the lockstep runner, driven by three threads.
 //
 //  - The loop (SCHED_FIFO, RealtimeThread): paced by the ADC, whose read()
@@ -56,11 +56,24 @@ struct OutputRow {
 struct LoopCounters {
   std::uint64_t samples = 0;
   std::uint64_t overruns = 0;      // a loop pass longer than a sample period
-  std::uint64_t missed_drdy = 0;   // conversions skipped (gaps) plus DRDY timeouts
+  std::uint64_t missed_drdy = 0;   // missed_conversions plus DRDY timeouts
   std::uint64_t adc_timeouts = 0;
+  // From the ADC driver (hal::AdcReadStats): conversions not delivered.
+  std::uint64_t late_reads = 0;          // read past the DOUT window, dropped
+  std::uint64_t spurious_edges = 0;      // DRDY line noise
+  std::uint64_t missed_conversions = 0;  // never read
   std::uint64_t pid_ticks = 0;
   std::uint64_t readings = 0;      // casing readings handed to the controller
   std::uint64_t rows_dropped = 0;  // output ring full
+};
+
+// The controller's state as the loop last published it, for the status line
+// (read on any thread through a Seqlock: the loop thread owns the controller).
+struct LoopStatus {
+  double casing_c = 0.0;     // last casing reading accepted (NaN before the first)
+  double setpoint_c = 0.0;   // active setpoint
+  double tec_a = 0.0;        // commanded TEC current (0 when off)
+  std::uint32_t flags = 0;   // controller flags
 };
 
 class RealtimeRunner {
@@ -85,14 +98,16 @@ class RealtimeRunner {
   void request_stop() noexcept { stop_.store(true, std::memory_order_relaxed); }
   // The loop has ended (duration reached or stop requested).
   bool finished() const noexcept { return finished_.load(std::memory_order_acquire); }
-  // Stops and joins every thread, drains the ring to the sinks, then puts
-  // the board in the safe state: TEC DAC 0 A, OPA548 disabled, rate DAC
-  // mid-scale. Idempotent; the destructor calls it.
+  // Stops the loop, puts the board in the safe state as soon as the loop
+  // thread has ended (TEC DAC 0 A, OPA548 disabled, rate DAC mid-scale: not
+  // behind a DS18B20 read of up to 1.5 s), then joins the other threads and
+  // drains the ring to the sinks. Idempotent; the destructor calls it.
   void stop() noexcept;
 
   bool is_realtime() const noexcept { return realtime_; }
   bool memory_locked() const noexcept { return memory_locked_; }
   LoopCounters counters() const noexcept;
+  LoopStatus status() const noexcept { return status_.load(); }
   LatencyHistogram::Summary latency() const noexcept { return latency_.summary(); }
   // Passes of the loop so far (a watchdog pings only while this moves).
   std::uint64_t heartbeat() const noexcept { return heartbeat_.load(std::memory_order_relaxed); }
@@ -121,6 +136,7 @@ class RealtimeRunner {
   void sensor_loop();
   void output_loop();
   void push_row(double now_s) noexcept;
+  void publish_status() noexcept;
 
   hal::Board board_;
   Controller& controller_;
@@ -136,7 +152,6 @@ class RealtimeRunner {
   double end_s_ = 0.0;
   double next_pid_s_ = 0.0;
   double next_row_s_ = 0.0;
-  double last_sample_s_ = -1.0;
   std::uint64_t readings_version_ = 0;
   RowAccumulator row_sums_;
   bool have_casing_ = false;
@@ -144,6 +159,7 @@ class RealtimeRunner {
 
   // Shared.
   Seqlock<Readings> readings_;
+  Seqlock<LoopStatus> status_;
   SpscRing<OutputRow, kRingRows> ring_;
   LatencyHistogram latency_;
   std::atomic<bool> stop_{false};
@@ -152,8 +168,10 @@ class RealtimeRunner {
   std::atomic<std::uint64_t> heartbeat_{0};
   std::atomic<std::uint64_t> samples_{0};
   std::atomic<std::uint64_t> overruns_{0};
-  std::atomic<std::uint64_t> missed_drdy_{0};
   std::atomic<std::uint64_t> adc_timeouts_{0};
+  std::atomic<std::uint64_t> late_reads_{0};
+  std::atomic<std::uint64_t> spurious_edges_{0};
+  std::atomic<std::uint64_t> missed_conversions_{0};
   std::atomic<std::uint64_t> pid_ticks_{0};
   std::atomic<std::uint64_t> readings_count_{0};
 

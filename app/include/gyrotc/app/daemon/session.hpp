@@ -17,16 +17,22 @@ struct SessionOptions {
   std::optional<bool> pid;        // overrides [control] pid
   std::string record_csv;         // overrides [output] record_csv
   bool stream = true;             // false: no line stream ([output] stream ignored)
+  std::string controller_file;    // a `gyrotc tune` controller file in place of [control]'s
+  // The identification experiment of `gyrotc tune` (tune/experiment.hpp) in
+  // the PID's place; the run ends when it does (or at duration_s / a signal).
+  bool tune_experiment = false;
 };
 
-// Runs the real-time runner on the configured board until the duration ends
-// or SIGINT/SIGTERM (SIGHUP reloads the calibration file), then puts the
+// Runs the real-time runner on the configured board until the duration ends,
+// the identification experiment ends, or SIGINT/SIGTERM (SIGHUP reloads the calibration file), then puts the
 // board in the safe state, prints the summary and returns (exit 0). Throws
 // InputError / RuntimeFailure, the board safe-off done.
 void run_session(const SessionOptions& options);
 
-// The TEC DAC to 0 A and the OPA548 disabled on the configured board.
-// Throws RuntimeFailure when the devices cannot be opened or written.
+// The TEC DAC to 0 A and the OPA548 disabled on the configured board, the
+// rate DAC to mid-scale if it can be (a warning if not). Only those devices
+// are opened: a missing sensor or ADC does not matter. Throws RuntimeFailure
+// unless the TEC path was made safe (or when another gyrotc holds the board).
 void safe_off_board(const DaemonConfig& config);
 
 // The CSV columns of OutputRows (also the header line): what `gyrotc fit`

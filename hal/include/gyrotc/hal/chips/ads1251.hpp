@@ -1,7 +1,9 @@
 #pragma once
 
 #include <cstdint>
+#include <limits>
 
+#include "gyrotc/hal/clock.hpp"
 #include "gyrotc/hal/devices.hpp"
 #include "gyrotc/hal/gpio_line.hpp"
 #include "gyrotc/hal/spi_bus.hpp"
@@ -12,6 +14,8 @@ namespace gyrotc::hal {
 // DOUT/DRDY line falls when a conversion is ready, and the 24 bits must be
 // clocked out (SPI mode 0, MSB first) inside the DOUT window of about
 // 348/fCLK, or the data of two conversions mix. Full scale is +/- Vref.
+// The same pin carries the data, so every read makes more falling edges on
+// the DRDY line (the MSB, the data bits): see Ads1251::read below.
 struct Ads1251Config {
   double fclk_hz = 384'000.0;          // 1 kSPS, a 906 us DOUT window
   double vref_v = 2.5;
@@ -27,9 +31,21 @@ class Ads1251 final : public RateAdc {
   static constexpr std::int32_t kCodeMax = 0x7FFFFF;   // +full scale
   static constexpr std::int32_t kCodeMin = -0x800000;  // -full scale
   static constexpr double kClocksPerSample = 384.0;    // datasheet: data rate = fCLK/384
-  static constexpr double kDoutWindowClocks = 348.0;   // datasheet: DOUT valid ~348 tCLK
+  static constexpr double kDoutWindowClocks = 348.0;   // datasheet: DOUT mode 348 tCLK
+  // Datasheet t2 + t3: the DRDY pulse (6 tCLK low, 6 tCLK high) before DOUT
+  // mode, plus t6 (30 ns) before the first SCLK.
+  static constexpr double kHoldOffClocks = 12.0;
+  static constexpr double kHoldOffExtraS = 30e-9;
+  // The pin falls only in DOUT mode (up to 360 tCLK after the DRDY edge) and
+  // at the next DRDY edge (384 tCLK): halfway between tells them apart.
+  static constexpr double kNextDrdyClocks = 372.0;
+  // A positive code's MSB pulls the pin low when DOUT mode starts, 12 tCLK
+  // after the DRDY edge; edge stamps jitter by a few microseconds.
+  static constexpr double kMsbToleranceClocks = 6.0;
 
-  Ads1251(SpiBus& spi, GpioLine& drdy, const Ads1251Config& config) noexcept;
+  // drdy must deliver falling edges in order with CLOCK_MONOTONIC stamps
+  // (GpioLine::wait_edge), on the same time base as clock.
+  Ads1251(SpiBus& spi, GpioLine& drdy, Clock& clock, const Ads1251Config& config) noexcept;
 
   // Why `config` cannot be read reliably, or success.
   static Status validate(const Ads1251Config& config) noexcept;
@@ -43,12 +59,44 @@ class Ads1251 final : public RateAdc {
   const Ads1251Config& config() const noexcept { return config_; }
 
  private:
+  // Takes the oldest queued falling edge that is a new conversion's DRDY:
+  //  - an edge less than half a period after the last DRDY edge is that
+  //    conversion's MSB or our read's data, skipped; any other one there is
+  //    counted as spurious (the part makes none: noise on the line);
+  //  - an edge stamped before the end of the last transfer is that read's
+  //    data, skipped, or, from 372 tCLK after the last DRDY edge on, the
+  //    next DRDY edge falling while a late read still clocked: that
+  //    conversion's shift pointer was moved, so it is skipped (missed);
+  //  - a gap of n periods since the last DRDY edge: n - 1 conversions missed
+  //    (counted from the first sample read on: edges queued since the line
+  //    was requested are stale, not missed).
+  // Then waits out the hold-off (DOUT mode starts 12 tCLK after the edge),
+  // skips the conversion (missed) if 24 bits can no longer end inside the
+  // window, and reads. A transfer that ended after the window is a late
+  // read: its sample is dropped (and the queue kept, see do_read); one that
+  // ended inside it drops the edges queued meanwhile. The window is
+  // taken as 348 tCLK from the stamped edge, 12 tCLK short of the datasheet's
+  // end of DOUT mode, a margin for the lateness of the edge's timestamp.
+  // Repeats until a sample is read whole or timeout_s has passed.
   Result<AdcSample> do_read(double timeout_s) noexcept override;
+  AdcReadStats do_stats() const noexcept override { return stats_; }
 
   SpiBus& spi_;
   GpioLine& drdy_;
+  Clock& clock_;
   Ads1251Config config_;
   double mv_per_code_;
+  double period_s_;
+  double window_s_;
+  double hold_off_s_;
+  double next_drdy_after_s_;
+  double msb_tolerance_s_;
+  double transfer_s_;
+  AdcReadStats stats_;
+  bool have_edge_ = false;
+  bool have_read_ = false;
+  double last_edge_s_ = 0.0;           // the last DRDY edge taken (read, late or skipped)
+  double last_transfer_end_s_ = -std::numeric_limits<double>::infinity();
 };
 
 }  // namespace gyrotc::hal

@@ -39,12 +39,15 @@ struct Ds18b20Options {
 
 // DS18B20 through the w1_therm files. read() reads the file once and checks
 // it: our own CRC8, the all-zero scratchpad (a bus held low, which passes a
-// naive CRC), the 85.000 C power-on value (accepted only right after a
-// reading near 85 C), range, and a stuck value.
+// naive CRC), the 12-bit resolution (the scratchpad's configuration byte; with
+// the temperature file, w1_therm's resolution file once), the 85.000 C
+// power-on value (accepted only right after a reading near 85 C), range, and
+// a stuck value.
 class Ds18b20 final : public TemperatureSensor {
  public:
   static constexpr std::int32_t kPowerOnMilliC = 85'000;  // datasheet: scratchpad after power-on
   static constexpr double kNear85C = 5.0;  // a previous reading this close makes 85.000 C plausible
+  static constexpr int kResolutionBits = 12;  // datasheet: 750 ms conversion, 0.0625 C steps
 
   Ds18b20(W1Device& device, Clock& clock, const Ds18b20Options& options);
 
@@ -62,6 +65,7 @@ class Ds18b20 final : public TemperatureSensor {
   bool have_previous_ = false;
   std::int32_t previous_milli_c_ = 0;
   double unchanged_since_s_ = 0.0;
+  bool resolution_checked_ = false;  // source = temperature: the resolution file was read
 };
 
 }  // namespace gyrotc::hal

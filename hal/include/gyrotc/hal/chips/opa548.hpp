@@ -1,5 +1,6 @@
 #pragma once
 
+#include "gyrotc/hal/devices.hpp"
 #include "gyrotc/hal/gpio_line.hpp"
 #include "gyrotc/hal/result.hpp"
 
@@ -9,7 +10,8 @@ namespace gyrotc::hal {
 // enabled; the part itself pulls E/S low while in thermal shutdown. The board
 // drives E/S from a push-pull GPIO (es_drive, high = enabled) through a level
 // shifter with a default-off pull-down, and may read the pin on a second GPIO
-// (es_sense); without one the drive line is read back.
+// (es_sense). Reading the drive line back would only return our own output,
+// so without a sense line the thermal state is unknown.
 // Disabled until enable(true); the back-ends request es_drive low.
 class Opa548 {
  public:
@@ -17,8 +19,10 @@ class Opa548 {
 
   Status enable(bool on) noexcept;
   bool enabled() const noexcept { return enabled_; }
-  // True when enabled but E/S reads low: thermal shutdown.
-  Result<bool> thermal_flag() noexcept;
+  // Enabled and E/S low: shutdown; enabled and E/S high: clear; disabled
+  // (we hold E/S low) or no sense line: unknown.
+  Result<ThermalStatus> thermal_status() noexcept;
+  bool has_sense() const noexcept { return sense_ != nullptr; }
 
  private:
   GpioLine& drive_;

@@ -25,7 +25,8 @@ class TecStage final : public TecDriver {
  private:
   Status do_set_current_a(double current_a) noexcept override;
   Status do_enable(bool on) noexcept override;
-  Result<bool> do_thermal_flag() noexcept override;
+  Result<ThermalStatus> do_thermal_status() noexcept override;
+  bool do_senses_thermal() const noexcept override { return amplifier_.has_sense(); }
   Status do_safe_off() noexcept override;
 
   Ad5060& dac_;

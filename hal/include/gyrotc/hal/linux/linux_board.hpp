@@ -23,6 +23,8 @@ namespace gyrotc::hal {
 struct GpioRef {
   std::string chip;
   std::string line;
+  GpioBias bias = GpioBias::as_is;  // the pin's pull (an opto sense usually needs pull_up)
+  bool active_low = false;          // levels and edges inverted on the pin
 };
 
 struct W1SensorConfig {
@@ -52,9 +54,20 @@ struct DeviceFailure {
   std::string message;
 };
 
-// The real board: spidev, libgpiod, w1 sysfs, CLOCK_MONOTONIC. Opening puts
-// the outputs in their safe state (TEC DAC at 0 A, OPA548 disabled, rate DAC
-// at mid-scale); the destructor calls tec.safe_off().
+// What safe_off() did: the TEC path (TEC DAC to 0 A, OPA548 disabled) and,
+// as a courtesy, the rate DAC at mid-scale.
+struct SafeOffReport {
+  Status tec_dac;
+  Status opa548;
+  Status rate_dac;
+  bool tec_safe() const noexcept { return tec_dac.ok() && opa548.ok(); }
+};
+
+// The real board: spidev, libgpiod, w1 sysfs, CLOCK_MONOTONIC. Opening locks
+// every spidev first (a board another gyrotc holds fails with
+// ErrorCode::busy and is not written at all), then puts the outputs in
+// their safe state (TEC DAC at 0 A, OPA548 disabled, rate DAC at mid-scale);
+// the destructor calls tec.safe_off().
 class LinuxBoard {
  public:
   struct Opened {
@@ -63,6 +76,9 @@ class LinuxBoard {
   };
   // Tries every device (so all problems are reported at once).
   static Opened open(const LinuxBoardConfig& config);
+  // Opens only the TEC DAC, the OPA548's E/S line and the rate DAC (so a
+  // missing sensor or ADC does not stand in the way) and makes them safe.
+  static SafeOffReport safe_off(const LinuxBoardConfig& config);
 
   ~LinuxBoard();
   LinuxBoard(const LinuxBoard&) = delete;

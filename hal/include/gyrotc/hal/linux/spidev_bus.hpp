@@ -10,8 +10,9 @@ namespace gyrotc::hal {
 
 // /dev/spidevB.C through the spidev ioctls: SPI_IOC_WR_MODE,
 // SPI_IOC_WR_BITS_PER_WORD, SPI_IOC_WR_MAX_SPEED_HZ, and one zero-initialised
-// spi_ioc_transfer per SPI_IOC_MESSAGE(1). Every failure names the path and
-// the errno text.
+// spi_ioc_transfer per SPI_IOC_MESSAGE(1). open() also takes the device's
+// exclusive lock (lock_device): a device another gyrotc holds is
+// ErrorCode::busy. Every failure names the path and the errno text.
 class SpidevBus final : public SpiBus {
  public:
   static Result<std::unique_ptr<SpidevBus>> open(const std::string& path) noexcept;

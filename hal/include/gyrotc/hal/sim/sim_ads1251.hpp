@@ -1,7 +1,11 @@
 #pragma once
 
+#include <array>
 #include <atomic>
+#include <cstddef>
 #include <cstdint>
+#include <limits>
+#include <optional>
 
 #include "gyrotc/hal/clock.hpp"
 #include "gyrotc/hal/gpio_line.hpp"
@@ -9,16 +13,43 @@
 
 namespace gyrotc::hal {
 
-// Bit-level ADS1251 simulator: converts its analog input every 384 fCLK
-// periods (conversion k completes at t = k * 384 / fCLK), announces it with a
-// falling DRDY edge and shifts the 24-bit two's complement code out MSB first
-// on SPI mode 0. A read later than the DOUT window (348 / fCLK after the
-// edge) returns a mix of two conversions, as the real part does.
+// Bit-level ADS1251 simulator, as hostile as the chip: one DOUT/DRDY pin that
+// both announces conversions and shifts the data out, read through the
+// kernel's GPIO edge-event queue.
 //
-// Waiting for DRDY sleeps on the board's clock until the edge: a
-// VirtualClock jumps there (lockstep), a RealtimeSimClock really waits. The
-// per-sample path (edge wait, 3-byte transfer) does no allocation, no
-// locking and no system call in lockstep mode.
+// The pin, per conversion k (fCLK periods T, the DRDY falling edge of
+// conversion k at e_k = k * 384 T; ADS1251/ADS1253 datasheet digital timing):
+//   e_k - 24T .. e_k        HIGH (t4, DRDY mode)
+//   e_k       .. e_k +  6T  LOW  (t2: the DRDY pulse; the output register
+//                                 holds conversion k, its shift pointer is reset)
+//   e_k +  6T .. e_k + 12T  HIGH (t3)
+//   e_k + 12T .. e_k + 360T DOUT mode (348 T): the bit at the shift pointer;
+//                           every SCLK falling edge moves it on, and after the
+//                           24th the pin stays LOW. A negative code's MSB
+//                           keeps the pin HIGH, a positive one pulls it LOW:
+//                           one more falling edge 12 T after the DRDY one.
+// So a conversion gives a burst of falling edges (the pulse, the MSB, the
+// data bits during a read), and a read that is early (inside the DRDY pulse),
+// late (past the DOUT window) or repeated (the pointer is past the 24th bit:
+// zeros) returns mixed, shifted or zero data, as the part does. SCLK edges
+// during the pulse move the pointer of the new conversion too.
+//
+// The DRDY line behaves like a GPIO line requested for edge events: every
+// transition the request selects is queued (at most kQueueEvents, newer ones
+// dropped when full, as the v1 uAPI's kfifo does) with the time of the edge
+// as its timestamp; an event becomes readable irq_delay after the edge. With
+// a both-edge request the v1 kernel labels each event by the line level its
+// IRQ thread reads then, so a DRDY pulse already over is labelled rising.
+// wait_edge() returns the oldest queued event of the wanted kind (skipping
+// others), discard_edges() drops the queue, get() reads the pin.
+//
+// Time comes from the board's clock: a VirtualClock jumps (lockstep), a
+// RealtimeSimClock really sleeps. The reader's environment is randomised per
+// seed (Timing): wait_edge() returns wake-up latency after the event that
+// woke it became readable (immediately for an event already queued), and a
+// transfer clocks after the SPI driver's start time and returns after its
+// 24 SCLKs plus the driver's return time. The
+// per-sample path allocates nothing and takes no lock.
 class SimAds1251 {
  public:
   // The analog input: the gyro voltage of the conversion ending at t_s.
@@ -28,10 +59,41 @@ class SimAds1251 {
     virtual double input_mv(double t_s) noexcept = 0;
   };
 
+  // Which edges the simulated GPIO request queues.
+  enum class EdgeRequest : std::uint8_t {
+    falling,  // falling edges only (every event is a falling edge)
+    both_v1,  // both edges, labelled by the level when the IRQ thread runs (uAPI v1)
+  };
+
+  // The reader's environment. Uniform draws from a splitmix64 stream of `seed`.
+  struct Timing {
+    double wake_min_s = 0.0;          // event readable -> wait_edge returns, uniform in [min, max]
+    double wake_max_s = 0.0;
+    double stall_probability = 0.0;   // per wake-up: a stall, uniform in [wake_max_s, stall_max_s]
+    double stall_max_s = 0.0;
+    double irq_delay_max_s = 0.0;     // edge -> event readable (and labelled), uniform in [0, max]
+    double spi_start_max_s = 0.0;     // transfer called -> first SCLK (SPI message queue), uniform in [0, max]
+    double spi_return_max_s = 0.0;    // last SCLK -> transfer returns, uniform in [0, max]
+    std::uint64_t seed = 1;
+  };
+
   struct Config {
     double fclk_hz = 384'000.0;
     double vref_v = 2.5;
+    EdgeRequest request = EdgeRequest::falling;
+    Timing timing;
   };
+
+  // Reads the simulator saw (any thread; relaxed counters).
+  struct Counters {
+    std::uint64_t conversions = 0;     // DRDY edges produced
+    std::uint64_t reads = 0;           // SPI transfers
+    std::uint64_t clean_reads = 0;     // 24 bits, all inside one DOUT window from its MSB
+    std::uint64_t corrupted_reads = 0; // anything else: early, late, repeated, partial
+    std::uint64_t dropped_events = 0;  // edge events lost to a full queue
+  };
+
+  static constexpr std::size_t kQueueEvents = 16;  // the v1 uAPI's per-line kfifo
 
   SimAds1251(Input& input, Clock& clock, const Config& config) noexcept;
   SimAds1251(const SimAds1251&) = delete;
@@ -43,13 +105,24 @@ class SimAds1251 {
   // The code the converter produces for an input (rounded, clipped).
   std::int32_t code_for_mv(double mv) const noexcept;
   double sample_period_s() const noexcept { return period_s_; }
+  // The code conversion k (DRDY edge at k * sample_period_s) produced, while
+  // it is among the last kHistory conversions.
+  std::optional<std::int32_t> code_of_conversion(std::int64_t k) const noexcept {
+    const auto slot = static_cast<std::size_t>(k) % kHistory;
+    if (k < 0 || history_index_[slot] != k) return std::nullopt;
+    return history_code_[slot];
+  }
+  static constexpr std::size_t kHistory = 64;
 
-  // Fault injection (any thread): DRDY never falls; every SPI transfer fails.
+  // Fault injection (any thread): DRDY never falls (the pin stays HIGH);
+  // every SPI transfer fails.
   void set_drdy_stall(bool on) noexcept { stall_.store(on, std::memory_order_relaxed); }
   void set_spi_error(bool on) noexcept { spi_error_.store(on, std::memory_order_relaxed); }
+  // Noise (the thread that reads): one spike low at t_s, a falling edge the
+  // part itself never makes.
+  void inject_glitch(double t_s) noexcept { glitch_s_ = t_s; }
 
-  std::uint64_t conversions_read() const noexcept { return reads_; }
-  std::uint64_t late_reads() const noexcept { return late_reads_; }
+  Counters counters() const noexcept;
 
  private:
   class Bus final : public SpiBus {
@@ -70,27 +143,76 @@ class SimAds1251 {
     Status do_set(bool high) noexcept override;
     Result<bool> do_get() noexcept override;
     Result<double> do_wait_edge(Edge edge, double timeout_s) noexcept override;
+    Result<int> do_discard_edges() noexcept override;
     std::string_view do_name() const noexcept override { return "sim:ads1251-drdy"; }
     SimAds1251& chip_;
   };
 
+  // Where the pin is within the conversion cycle of the last DRDY edge.
+  enum class Segment : std::uint8_t { pulse_low, pulse_high, dout, drdy_high };
+
+  struct Event {
+    double stamp_s = 0.0;    // the edge
+    double visible_s = 0.0;  // readable from the queue
+    bool falling = true;     // the label (both_v1: fixed when it becomes visible)
+    bool labelled = true;
+  };
+
+  // Moves the pin's state machine to t_s (never backwards), queueing the
+  // edges on the way.
+  void advance_to(double t_s) noexcept;
+  void enter(Segment segment) noexcept;  // and the time it ends
+  void cross_boundary() noexcept;
+  void set_level(bool level, double t_s) noexcept;
+  void queue_edge(double t_s, bool falling, double irq_delay_s) noexcept;
+  void label_visible(double t_s) noexcept;
+  bool dout_bit() const noexcept;
+  void shift(double t_s) noexcept;
+  Result<double> wait(Edge edge, double timeout_s) noexcept;
+  Status transfer(std::span<const std::uint8_t> tx, std::span<std::uint8_t> rx) noexcept;
+  double uniform(double lo, double hi) noexcept;
+  double wake_latency_s() noexcept;
+  static void bump(std::atomic<std::uint64_t>& counter) noexcept {
+    counter.store(counter.load(std::memory_order_relaxed) + 1, std::memory_order_relaxed);
+  }
+
   Input& input_;
   Clock& clock_;
   Config config_;
+  double tclk_s_;
   double period_s_;
-  double window_s_;
   double codes_per_mv_;
   Bus spi_{*this};
   Drdy drdy_{*this};
   std::uint8_t spi_mode_ = 0xFF;  // not configured
-  std::int64_t last_index_ = 0;   // conversion k of the last DRDY edge
-  double edge_time_s_ = 0.0;
-  std::uint32_t frame_ = 0;
-  bool data_ready_ = false;
-  std::uint64_t reads_ = 0;
-  std::uint64_t late_reads_ = 0;
+  double bit_s_ = 1e-6;           // one SCLK period at the configured speed
+
+  // Pin state at t_s_.
+  double t_s_ = 0.0;
+  std::int64_t cycle_ = 0;        // conversion k of the last DRDY edge
+  Segment segment_ = Segment::drdy_high;
+  double boundary_s_ = 0.0;       // when segment_ ends
+  std::uint32_t frame_ = 0;       // conversion k's 24-bit code
+  int pointer_ = 0;               // SCLK falling edges since the DRDY edge
+  bool level_ = true;
+
+  std::array<Event, kQueueEvents> queue_{};
+  std::size_t head_ = 0;
+  std::size_t count_ = 0;
+  double last_visible_s_ = 0.0;   // the IRQ thread queues in edge order
+  double glitch_s_ = std::numeric_limits<double>::infinity();
+
+  std::array<std::int32_t, kHistory> history_code_{};
+  std::array<std::int64_t, kHistory> history_index_{};
+
+  std::uint64_t rng_;
   std::atomic<bool> stall_{false};
   std::atomic<bool> spi_error_{false};
+  std::atomic<std::uint64_t> conversions_{0};
+  std::atomic<std::uint64_t> reads_{0};
+  std::atomic<std::uint64_t> clean_reads_{0};
+  std::atomic<std::uint64_t> corrupted_reads_{0};
+  std::atomic<std::uint64_t> dropped_events_{0};
 };
 
 }  // namespace gyrotc::hal

@@ -35,15 +35,26 @@ struct SimBoardOptions {
   double tec_current_limit_a = 1.5;
   Ds18b20Options sensor;
   bool ambient_sensor = true;    // a second DS18B20 outside the casing
+  bool opa548_sense = true;      // a GPIO reads the OPA548's E/S pin (es_sense)
+  // The ADS1251 reader's environment: DRDY edge to wake-up, IRQ delivery,
+  // SPI start and return (SimAds1251::Timing, seeded from the board's seed).
+  // The chip itself is always as hostile as the part; by default the reader
+  // is instant (what `gyrotc simulate` studies is the thermal loop). The
+  // daemon's [sim] table defaults to a PREEMPT_RT Raspberry Pi 4's typical
+  // figures (app::SimConfig); real-time mode adds the host's own latency.
+  SimAds1251::Timing adc_timing;
 };
 
 // The simulated board: the same chip drivers as on the real board, over
 // bit-level chip simulators wired to the plant model.
 //
-//   Ads1251 driver <- SimAds1251 (DRDY + SPI) <- plant.gyro_mv()
+//   Ads1251 driver <- SimAds1251 (DRDY/DOUT pin + SPI) <- plant.gyro_mv()
+//     every sample the driver returns is checked against the conversion it
+//     claims to be (accepted_corrupted_samples())
 //   Ad5060 #1 (rate out) -> SimAd5060 -> rate_out_v()
 //   TecStage -> Ad5060 #2 -> SimAd5060 -> plant.set_tec_drive_v()
 //            -> Opa548   -> SimOpa548 E/S  -> plant.set_tec_enabled()
+//                           (E/S read back only with opa548_sense)
 //   Ds18b20 drivers <- SimDs18b20 (w1_therm text) <- plant casing/ambient temperatures
 //
 // Time. The board's clock tells the board whenever it moves (ClockListener);
@@ -99,8 +110,30 @@ class SimBoard final : ClockListener, SimAds1251::Input, SimAd5060::Listener, Si
   const SimAd5060& tec_dac_chip() const noexcept { return tec_dac_chip_; }
   const SimOpa548& opa548_chip() const noexcept { return opa548_chip_; }
   const SimBoardOptions& options() const noexcept { return options_; }
+  // ADC samples the driver returned, and those whose code is not the code of
+  // the conversion their time stamp names (a mixed, shifted or zero read the
+  // driver took for good). Any thread.
+  std::uint64_t accepted_samples() const noexcept { return checked_adc_.accepted(); }
+  std::uint64_t accepted_corrupted_samples() const noexcept { return checked_adc_.corrupted(); }
 
  private:
+  // The Board's rate ADC: the Ads1251 driver, each sample checked against
+  // the simulator's record of what the conversion was.
+  class CheckedAdc final : public RateAdc {
+   public:
+    CheckedAdc(RateAdc& driver, const SimAds1251& chip) noexcept : driver_(driver), chip_(chip) {}
+    std::uint64_t accepted() const noexcept { return accepted_.load(std::memory_order_relaxed); }
+    std::uint64_t corrupted() const noexcept { return corrupted_.load(std::memory_order_relaxed); }
+
+   private:
+    Result<AdcSample> do_read(double timeout_s) noexcept override;
+    AdcReadStats do_stats() const noexcept override { return driver_.stats(); }
+    RateAdc& driver_;
+    const SimAds1251& chip_;
+    std::atomic<std::uint64_t> accepted_{0};
+    std::atomic<std::uint64_t> corrupted_{0};
+  };
+
   void on_time_advanced(double now_s) noexcept override;
   double input_mv(double t_s) noexcept override;
   void on_dac_output(double output_v, Ad5060PowerDown mode) noexcept override;
@@ -128,6 +161,7 @@ class SimBoard final : ClockListener, SimAds1251::Input, SimAd5060::Listener, Si
   SimDs18b20 ambient_chip_;
 
   Ads1251 adc_;
+  CheckedAdc checked_adc_;
   Ad5060 rate_dac_;
   Ad5060 tec_dac_;
   Opa548 opa548_;

@@ -17,10 +17,12 @@ enum class SimTempFault : std::uint8_t {
   stuck,           // the value freezes at the temperature when the fault was set
   power_on_reset,  // the next read shows the 85.000 C power-on scratchpad (once)
   all_zero,        // the bus is held low: all-zero scratchpad, "crc=00 YES", t=0
+  low_resolution,  // configured for 9 bits (0.5 C steps), as a part set up elsewhere may be
 };
 
-// DS18B20 + w1_therm simulator: renders the w1_slave and temperature files in
-// the kernel's format from a 12-bit scratchpad (1/16 C steps) of the
+// DS18B20 + w1_therm simulator: renders the w1_slave, temperature and
+// resolution files in the kernel's format from a 12-bit scratchpad (1/16 C
+// steps; 9 bits with the low_resolution fault) of the
 // published temperature. Thread model: set_temperature_c() is called by the
 // thread that steps the plant, read() by the sensor thread; they share only
 // atomics. With a sleep clock, read() takes conversion_s as the real part
@@ -40,11 +42,11 @@ class SimDs18b20 final : public W1Device {
   SimTempFault fault() const noexcept { return fault_.load(std::memory_order_relaxed); }
 
   // The 9 scratchpad bytes for a temperature (CRC in byte 8).
-  static std::array<std::uint8_t, 9> scratchpad_for(double temp_c) noexcept;
+  static std::array<std::uint8_t, 9> scratchpad_for(double temp_c, int resolution_bits = 12) noexcept;
   // The file as w1_therm prints it for a scratchpad.
   static std::size_t render(W1File file, const std::array<std::uint8_t, 9>& pad, bool crc_ok,
                             std::span<char> out) noexcept;
-  // Writes <root>/<id>/{w1_slave,temperature} for the current state (a fake
+  // Writes <root>/<id>/{w1_slave,temperature,resolution} for the current state (a fake
   // sysfs tree for W1Sysfs); throws std::runtime_error on failure.
   void write_tree(const std::string& root);
   const std::string& id() const noexcept { return id_; }

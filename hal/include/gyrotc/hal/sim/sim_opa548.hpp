@@ -7,7 +7,9 @@
 namespace gyrotc::hal {
 
 // OPA548 E/S pin simulator: two GPIO lines onto one pin. es_drive is the
-// push-pull output (false = low = disabled; power-on: low); es_sense
+// push-pull output (false = low = disabled; power-on: low); reading it back
+// gives the level driven, as a GPIO output does (on the reference board it
+// drives E/S through an optocoupler and sees nothing of the pin). es_sense
 // reads the pin, which the part pulls low itself in thermal shutdown.
 class SimOpa548 {
  public:
@@ -44,7 +46,7 @@ class SimOpa548 {
 
    private:
     Status do_set(bool high) noexcept override;
-    Result<bool> do_get() noexcept override { return chip_.output_enabled(); }
+    Result<bool> do_get() noexcept override { return chip_.drive_released(); }
     Result<double> do_wait_edge(Edge, double) noexcept override;
     std::string_view do_name() const noexcept override { return "sim:opa548-es-drive"; }
     SimOpa548& chip_;

@@ -1,0 +1,80 @@
+#pragma once
+
+#include <Eigen/Dense>
+
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "gyrotc/algorithms/tune/thermal_model.hpp"
+
+// Identifies the ThermalModel of one unit from its own record (issue 23): the
+// columns a board has, time_s, sensor_c (casing DS18B20), tec_a (commanded)
+// and, when the board has the second DS18B20, ambient_c; never the plant's
+// true temperatures. The model's sensor reading is fitted to the record's by
+// least squares (output error: the model runs open loop along the whole
+// record with the recorded commands and ambient), with the Levenberg-
+// Marquardt search and covariance of identify::fit_separable; standard errors
+// are inflated for the residual's autocorrelation (identify::residual_stats'
+// effective sample size). Without an ambient column the ambient is taken as
+// constant and estimated with the rest.
+namespace gyrotc::tune {
+
+struct TuneRecord {
+  std::vector<double> time_s;
+  std::vector<double> sensor_c;
+  std::vector<double> tec_a;      // commanded, in effect from this row to the next
+  std::vector<double> ambient_c;  // empty: no ambient sensor
+};
+
+struct Estimate {
+  std::string name;
+  std::string unit;
+  double value = 0.0;
+  double std_error = 0.0;
+  bool determined = true;  // false: the record does not pin it down (see note)
+  std::string note;
+};
+
+struct ThermalFit {
+  ThermalModel model;
+  ThermalState initial;
+  bool ambient_measured = true;
+  double ambient_c = 0.0;  // the estimated constant ambient (ambient_measured = false)
+  std::vector<Estimate> estimates;
+
+  // Fit quality.
+  std::size_t samples = 0;
+  double duration_s = 0.0;
+  double rms_c = 0.0;
+  double max_abs_c = 0.0;
+  double r_squared = 0.0;
+  double quantisation_rms_c = 0.0625 / 3.4641016151377544;  // DS18B20 step / sqrt(12)
+  double lag1_autocorrelation = 0.0;
+  double effective_samples = 0.0;
+  double ljung_box_p = 0.0;
+  bool rail_reached = false;   // commands the identified rail clipped
+  double max_command_a = 0.0;  // largest |tec_a| of the record
+  double heating_limit_a = 0.0;  // largest / smallest command: the experiment's limits
+  double cooling_limit_a = 0.0;
+
+  std::vector<double> prediction;  // modelled reading at every record row
+
+  // Internal: the fitted parameter vector and its covariance, for the
+  // uncertainty of derived quantities.
+  std::vector<double> theta;
+  Eigen::MatrixXd covariance;
+};
+
+// Throws std::invalid_argument with one line saying what is wrong or missing:
+// unequal columns, time not increasing (naming the row), a gap longer than
+// 30 s, a record shorter than 30 min, no excitation (the current hardly
+// changes), a flat record (the casing hardly moves), a saturated experiment
+// (the current sits at one limit), or a current without effect on the casing.
+ThermalFit identify_thermal(const TuneRecord& record);
+
+// Standard error of a derived quantity f(model) by the delta method over the
+// fitted parameters' covariance.
+double std_error_of(const ThermalFit& fit, const std::function<double(const ThermalModel&)>& f);
+
+}  // namespace gyrotc::tune

@@ -1,0 +1,30 @@
+#include "gyrotc/algorithms/control/tec_law.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+namespace gyrotc::control {
+
+CurrentRange applied_range(double out_min, double out_max, const RailLimit& rail, double casing_c,
+                           double ambient_c) noexcept {
+  CurrentRange r{out_min, out_max};
+  if (rail.known) {
+    const double dt_c = std::isfinite(ambient_c) ? casing_c - ambient_c : 0.0;
+    r.max_a = std::min(r.max_a, rail.pos_a - rail.a_per_c * dt_c);
+    r.min_a = std::max(r.min_a, rail.neg_a - rail.a_per_c * dt_c);
+  }
+  r.max_a = std::max(r.max_a, r.min_a);
+  return r;
+}
+
+double feed_forward_a(double a_per_c, double setpoint_c, double ambient_c) noexcept {
+  return std::isfinite(ambient_c) ? a_per_c * (setpoint_c - ambient_c) : 0.0;
+}
+
+double pid_current_a(IncrementalPid& pid, double casing_c, double setpoint_c, double ff_a,
+                     const CurrentRange& range) noexcept {
+  const double u = pid.step(casing_c, setpoint_c, range.min_a - ff_a, range.max_a - ff_a);
+  return std::clamp(u + ff_a, range.min_a, range.max_a);
+}
+
+}  // namespace gyrotc::control

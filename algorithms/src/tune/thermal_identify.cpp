@@ -1,0 +1,495 @@
+#include "gyrotc/algorithms/tune/thermal_identify.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <functional>
+#include <limits>
+#include <stdexcept>
+#include <string>
+
+#include "gyrotc/algorithms/identify/residual_stats.hpp"
+#include "gyrotc/algorithms/identify/separable_fit.hpp"
+
+namespace gyrotc::tune {
+namespace {
+
+// Record requirements (the experiment takes about 2 h).
+constexpr double kMinDurationS = 1800.0;
+constexpr double kMaxGapS = 30.0;
+constexpr double kMinCurrentRangeA = 0.05;
+constexpr double kMinTemperatureRangeC = 0.5;
+constexpr double kMaxShareAtLimit = 0.8;
+constexpr double kMinPeltierTRatio = 3.0;
+// The DS18B20's 1/16 C step as noise: variance step^2 / 12.
+constexpr double fit_quantisation_var() { return 0.0625 * 0.0625 / 12.0; }
+// Levenberg-Marquardt runs from at most this many starting points.
+constexpr std::size_t kMaxRuns = 4;
+// Rail "none": a current no stage of this kind delivers.
+constexpr double kNoRailA = 50.0;
+
+// The parameter vector theta (what the fit searches).
+enum Index : std::size_t {
+  kLogPeltier, kLogJoule, kLogLoss, kLogShellRatio, kLogShellTau, kRestRise, kDelay, kLagShare,
+  kLogRail, kCasing0, kShell0, kAmbient, kCount
+};
+
+std::string fmt(const char* format, double a, double b = 0.0, double c = 0.0) {
+  char buf[256];
+  std::snprintf(buf, sizeof buf, format, a, b, c);
+  return buf;
+}
+
+// Parameters the data pin down each on their own (strongly correlated pairs
+// make the search crawl): the internal heat as the casing's rise above the
+// ambient with the TEC off (not against the loss it is divided by), the
+// sensor's total delay and the share of it that is a lag, and the rail as the
+// current the stage gives at 30 K across the module (not at 0 K, an
+// extrapolation along the slope S/R that the Joule term sets).
+constexpr double kRailReferenceK = 30.0;
+
+ThermalModel model_of(const std::vector<double>& th) {
+  ThermalModel m;
+  m.peltier_per_a_s = std::exp(th[kLogPeltier]);
+  m.joule_k_per_a2_s = std::exp(th[kLogJoule]);
+  m.loss_per_s = std::exp(th[kLogLoss]);
+  m.shell_ratio = std::exp(th[kLogShellRatio]);
+  m.shell_tau_s = std::exp(th[kLogShellTau]);
+  m.internal_k_per_s = th[kRestRise] * m.loss_per_s;
+  m.sensor_lag_s = th[kLagShare] * th[kDelay];
+  m.dead_time_s = th[kDelay] - m.sensor_lag_s;
+  m.rail_a = std::exp(th[kLogRail]) + kRailReferenceK * m.rail_a_per_c();
+  return m;
+}
+
+// The inverse for the rail: theta's rail parameter for a rail at 0 K.
+double rail_parameter(double rail_a, double peltier, double joule) {
+  return std::log(std::max(0.02, rail_a - kRailReferenceK * peltier / (2.0 * joule)));
+}
+
+void check_record(const TuneRecord& r) {
+  const std::size_t n = r.time_s.size();
+  if (r.sensor_c.size() != n || r.tec_a.size() != n || (!r.ambient_c.empty() && r.ambient_c.size() != n)) {
+    throw std::invalid_argument("the record's columns have different lengths");
+  }
+  if (n < 2) throw std::invalid_argument("the record has fewer than 2 rows");
+  for (std::size_t k = 0; k < n; ++k) {
+    if (!std::isfinite(r.time_s[k]) || !std::isfinite(r.sensor_c[k]) || !std::isfinite(r.tec_a[k])) {
+      throw std::invalid_argument("row " + std::to_string(k + 1) + " has a non-numeric time_s, sensor_c or tec_a");
+    }
+    if (k > 0 && !(r.time_s[k] > r.time_s[k - 1])) {
+      throw std::invalid_argument("time_s does not increase at row " + std::to_string(k + 1));
+    }
+    if (k > 0 && r.time_s[k] - r.time_s[k - 1] > kMaxGapS) {
+      throw std::invalid_argument(fmt("a gap of %.0f s in the record at time_s = %.0f: tune needs a continuous "
+                                      "record (rows at most 30 s apart)",
+                                      r.time_s[k] - r.time_s[k - 1], r.time_s[k - 1]));
+    }
+  }
+  const double duration = r.time_s.back() - r.time_s.front();
+  if (duration < kMinDurationS) {
+    throw std::invalid_argument(fmt("the record lasts %.0f s; tune needs at least 30 min of the identification "
+                                    "experiment (`gyrotc record --experiment tune` takes about 2 h)",
+                                    duration));
+  }
+  const auto [imin, imax] = std::minmax_element(r.tec_a.begin(), r.tec_a.end());
+  if (*imax - *imin < kMinCurrentRangeA) {
+    throw std::invalid_argument(fmt("no excitation: tec_a stays within %.3f .. %.3f A, so nothing tells the "
+                                    "current's effect (record `gyrotc record --experiment tune`)",
+                                    *imin, *imax));
+  }
+  const auto [tmin, tmax] = std::minmax_element(r.sensor_c.begin(), r.sensor_c.end());
+  if (*tmax - *tmin < kMinTemperatureRangeC) {
+    throw std::invalid_argument(fmt("flat record: sensor_c stays within %.3f .. %.3f C, so the casing did not "
+                                    "respond to the current (is the TEC connected, the casing sensor the right "
+                                    "one?)",
+                                    *tmin, *tmax));
+  }
+  if (*tmax >= 125.0 || *tmin <= -55.0) {
+    throw std::invalid_argument(fmt("saturated record: sensor_c reaches %.1f C, the DS18B20's end of range",
+                                    *tmax >= 125.0 ? *tmax : *tmin));
+  }
+  // A current that sits at one extreme for most of the record: the unit never
+  // came under the experiment's control (an unreachable setpoint, a stage
+  // stuck at its limit).
+  for (const double extreme : {*imin, *imax}) {
+    if (extreme == 0.0) continue;
+    std::size_t at = 0;
+    for (double i : r.tec_a) at += std::fabs(i - extreme) <= 0.02 * std::fabs(extreme) ? 1 : 0;
+    const double share = static_cast<double>(at) / static_cast<double>(n);
+    if (share > kMaxShareAtLimit) {
+      throw std::invalid_argument(fmt("saturated experiment: tec_a sits at %.3f A in %.0f %% of the rows, so "
+                                      "the casing never came under the experiment's control (is the setpoint "
+                                      "reachable at this ambient?)",
+                                      extreme, 100.0 * share));
+    }
+  }
+}
+
+// A first guess from the one-node heat balance on smoothed derivatives
+// (equation error): dT/dt = a I (T + 273.15) + b I^2 - g_ca (T - Ta) + p.
+std::vector<double> first_guess(const TuneRecord& r, const std::vector<double>& ambient, bool ambient_measured) {
+  const std::size_t n = r.time_s.size();
+  constexpr std::size_t w = 10;
+  double max_abs = 0.0;
+  for (double i : r.tec_a) max_abs = std::max(max_abs, std::fabs(i));
+  double mean_ambient = 0.0;
+  for (double a : ambient) mean_ambient += a;
+  mean_ambient /= static_cast<double>(n);
+
+  struct Row {
+    double dtdt, t, i, i2, ta;
+    bool steady;  // one command over the window
+  };
+  std::vector<Row> rows;
+  rows.reserve(n);
+  for (std::size_t k = w; k + w < n; ++k) {
+    Row row{};
+    row.steady = true;
+    for (std::size_t j = k - w; j < k + w; ++j) {
+      row.t += r.sensor_c[j];
+      row.i += r.tec_a[j];
+      row.i2 += r.tec_a[j] * r.tec_a[j];
+      row.steady = row.steady && r.tec_a[j] == r.tec_a[k];
+    }
+    row.t /= 2.0 * w;
+    row.i /= 2.0 * w;
+    row.i2 /= 2.0 * w;
+    row.dtdt = (r.sensor_c[k + w] - r.sensor_c[k - w]) / (r.time_s[k + w] - r.time_s[k - w]);
+    row.ta = ambient_measured ? ambient[k] : mean_ambient;
+    rows.push_back(row);
+  }
+  const double small_a = max_abs / 3.0;
+  double a = 1e-4;
+  double b = 1e-2;
+  double g = 1e-4;
+  double c = 0.0;
+  double rail = kNoRailA;
+  // Two passes: the heat balance on the rows no rail can clip (heating up to
+  // a third of the largest command, and cooling, whose limit moves away while
+  // the casing is warmer than the shell), the rail from the rows that need
+  // less current than was commanded; then again without the cooling rows
+  // that rail would clip too (a weak stage clips both ways).
+  for (int pass = 0; pass < 2; ++pass) {
+    Eigen::MatrixXd x(static_cast<Eigen::Index>(rows.size()), 4);
+    Eigen::VectorXd y(static_cast<Eigen::Index>(rows.size()));
+    Eigen::Index used = 0;
+    const double s_guess = a / (2.0 * b);
+    for (const Row& row : rows) {
+      if (row.i > small_a) continue;
+      if (pass == 1 && row.i < -small_a && -row.i > rail + s_guess * (row.t - row.ta)) continue;
+      y(used) = row.dtdt;
+      x(used, 0) = row.i * (row.t + kKelvin);
+      x(used, 1) = row.i2;
+      x(used, 2) = ambient_measured ? -(row.t - row.ta) : -row.t;
+      x(used, 3) = 1.0;
+      ++used;
+    }
+    if (used > 8) {
+      const Eigen::VectorXd beta = identify::solve_linear(x.topRows(used), y.head(used));
+      if (beta(0) > 0.0) a = beta(0);
+      b = beta(1) > 0.0 ? beta(1) : 100.0 * a;  // S/R of a few mV/K per ohm
+      if (beta(2) > 0.0) g = beta(2);
+      c = beta(3);
+    }
+    const double p_pass = ambient_measured ? c : 0.0;
+    double rail_sum = 0.0;
+    std::size_t clipped = 0;
+    const double s_per_r = a / (2.0 * b);
+    for (const Row& row : rows) {
+      if (!row.steady || row.i <= small_a) continue;
+      // b I^2 + a (T + K) I - (dT/dt + g (T - Ta) - p) = 0, the positive root.
+      const double q = row.dtdt + g * (row.t - row.ta) - p_pass;
+      const double lin = a * (row.t + kKelvin);
+      const double needed = (-lin + std::sqrt(lin * lin + 4.0 * b * q)) / (2.0 * b);
+      if (std::isfinite(needed) && needed < 0.95 * row.i) {
+        rail_sum += needed + s_per_r * (row.t - row.ta);
+        ++clipped;
+      }
+    }
+    rail = clipped > 20 ? rail_sum / static_cast<double>(clipped) : kNoRailA;
+    if (rail >= kNoRailA) break;  // nothing clipped: the first pass stands
+  }
+  const double p = ambient_measured ? c : 0.0;
+  const double ta0 = ambient_measured ? mean_ambient : c / g;
+  std::vector<double> th(kCount, 0.0);
+  th[kLogPeltier] = std::log(a);
+  th[kLogJoule] = std::log(b);
+  th[kLogLoss] = std::log(g);
+  th[kRestRise] = p / g;
+  th[kAmbient] = ta0;
+  th[kDelay] = 1.5;
+  th[kLagShare] = 0.3;
+  th[kCasing0] = r.sensor_c.front();
+  th[kShell0] = 0.5 * (r.sensor_c.front() + ta0);
+  th[kLogRail] = rail_parameter(std::clamp(rail, 0.05, kNoRailA), a, b);
+  return th;
+}
+
+}  // namespace
+
+ThermalFit identify_thermal(const TuneRecord& record) {
+  check_record(record);
+  const std::size_t n = record.time_s.size();
+
+  // The ambient column, if it has any reading: gaps (no reading yet) take the nearest one.
+  bool ambient_measured = false;
+  std::vector<double> ambient(n, 0.0);
+  if (!record.ambient_c.empty()) {
+    double last = std::numeric_limits<double>::quiet_NaN();
+    for (double a : record.ambient_c) {
+      if (std::isfinite(a)) {
+        last = a;
+        break;
+      }
+    }
+    ambient_measured = std::isfinite(last);
+    for (std::size_t k = 0; k < n; ++k) {
+      if (std::isfinite(record.ambient_c[k])) last = record.ambient_c[k];
+      ambient[k] = last;
+    }
+  }
+
+  std::vector<double> start = first_guess(record, ambient, ambient_measured);
+  const auto [tmin, tmax] = std::minmax_element(record.sensor_c.begin(), record.sensor_c.end());
+  double max_command = 0.0;
+  for (double i : record.tec_a) max_command = std::max(max_command, std::fabs(i));
+
+  identify::SeparableModel model;
+  const std::size_t k_params = ambient_measured ? kAmbient : kCount;
+  model.theta_lower.assign(k_params, 0.0);
+  model.theta_upper.assign(k_params, 0.0);
+  auto bound = [&](std::size_t j, double lo, double hi) {
+    model.theta_lower[j] = lo;
+    model.theta_upper[j] = hi;
+  };
+  bound(kLogPeltier, std::log(1e-6), std::log(1e-1));
+  bound(kLogJoule, std::log(1e-6), std::log(10.0));
+  bound(kLogLoss, std::log(1e-7), std::log(1e-1));
+  bound(kLogShellRatio, std::log(0.01), std::log(1000.0));
+  bound(kLogShellTau, std::log(2.0), std::log(5000.0));
+  bound(kRestRise, -30.0, 60.0);
+  bound(kDelay, 0.0, 200.0);
+  bound(kLagShare, 0.0, 1.0);
+  bound(kLogRail, std::log(0.02), std::log(kNoRailA));
+  bound(kCasing0, record.sensor_c.front() - 5.0, record.sensor_c.front() + 5.0);
+  bound(kShell0, record.sensor_c.front() - 20.0, record.sensor_c.front() + 20.0);
+  if (!ambient_measured) bound(kAmbient, *tmin - 60.0, *tmax + 10.0);
+  for (std::size_t j = 0; j < k_params; ++j) start[j] = std::clamp(start[j], model.theta_lower[j], model.theta_upper[j]);
+
+  std::vector<double> scratch(n);
+  std::vector<double> constant_ambient(n);
+  model.evaluate = [&](const std::vector<double>& th, Eigen::MatrixXd& design, Eigen::VectorXd& offset) {
+    design.resize(static_cast<Eigen::Index>(n), 0);
+    offset.resize(static_cast<Eigen::Index>(n));
+    const ThermalModel m = model_of(th);
+    const ThermalState x0{th[kCasing0], th[kShell0]};
+    const std::vector<double>* amb = &ambient;
+    if (!ambient_measured) {
+      std::fill(constant_ambient.begin(), constant_ambient.end(), th[kAmbient]);
+      amb = &constant_ambient;
+    }
+    simulate_sensor(m, x0, record.time_s, record.tec_a, *amb, std::span<double>(offset.data(), n), scratch);
+  };
+  Eigen::VectorXd y(static_cast<Eigen::Index>(n));
+  for (std::size_t k = 0; k < n; ++k) y(static_cast<Eigen::Index>(k)) = record.sensor_c[k];
+  // Starting points. The rail clips the current in a way the Joule term can
+  // partly mimic, and the shell is only seen through the casing: the least
+  // squares surface has local minima. So first the best of a grid over the
+  // Joule term and the rail (the shell at a typical guess) and the best
+  // without a rail (the search cannot find a rail it starts far above, where
+  // no command reaches it), then a grid over the shell and the sensor's delay
+  // from both. Levenberg-Marquardt runs from the best of these, from the best
+  // of the other kind, then from the next best (at most kMaxRuns), until a
+  // fit reaches the DS18B20's quantisation floor.
+  Eigen::MatrixXd design;
+  Eigen::VectorXd offset;
+  auto sse_of = [&](const std::vector<double>& th) {
+    model.evaluate(th, design, offset);
+    const double sse = (y - offset).squaredNorm();
+    return std::isfinite(sse) ? sse : std::numeric_limits<double>::infinity();
+  };
+  std::vector<double> base = start;
+  base.resize(k_params);
+  base[kLogShellRatio] = std::log(5.0);
+  base[kLogShellTau] = std::log(80.0);
+  const double rail_guess = model_of(start).rail_a;
+  const double rail_scale = rail_guess < 0.9 * kNoRailA ? rail_guess : std::max(0.05, max_command);
+  std::vector<double> best_rail = base;
+  std::vector<double> best_none = base;
+  double best_rail_sse = std::numeric_limits<double>::infinity();
+  double best_none_sse = std::numeric_limits<double>::infinity();
+  for (double joule : {0.4, 0.63, 1.0, 1.6, 2.5}) {
+    for (double rail : {0.6, 0.75, 0.9, 1.0, 1.15, 0.0}) {
+      std::vector<double> th = base;
+      th[kLogJoule] = start[kLogJoule] + std::log(joule);
+      th[kLogRail] = rail_parameter(rail > 0.0 ? rail * rail_scale : kNoRailA, std::exp(th[kLogPeltier]),
+                                    std::exp(th[kLogJoule]));
+      const double sse = sse_of(th);
+      if (rail > 0.0 && sse < best_rail_sse) {
+        best_rail_sse = sse;
+        best_rail = th;
+      }
+      if (rail == 0.0 && sse < best_none_sse) {
+        best_none_sse = sse;
+        best_none = th;
+      }
+    }
+  }
+  struct Start {
+    std::vector<double> theta;
+    double sse;
+    bool rail;
+  };
+  std::vector<Start> starts;
+  for (const std::vector<double>* th : {&best_rail, &best_none}) {
+    for (double ratio : {1.0, 5.0, 25.0}) {
+      for (double tau : {20.0, 80.0, 300.0}) {
+        for (double delay : {1.5, 10.0, 40.0}) {
+          std::vector<double> trial = *th;
+          trial[kLogShellRatio] = std::log(ratio);
+          trial[kLogShellTau] = std::log(tau);
+          trial[kDelay] = delay;
+          starts.push_back({trial, sse_of(trial), th == &best_rail});
+        }
+      }
+    }
+  }
+  std::sort(starts.begin(), starts.end(), [](const Start& a, const Start& b) { return a.sse < b.sse; });
+  // The runs: the best start, the best of the other kind (with or without a
+  // rail), then the next best, until a fit reaches the quantisation floor.
+  std::vector<const Start*> runs{&starts.front()};
+  for (const Start& st : starts) {
+    if (st.rail != starts.front().rail) {
+      runs.push_back(&st);
+      break;
+    }
+  }
+  for (const Start& st : starts) {
+    if (runs.size() >= kMaxRuns) break;
+    if (std::find(runs.begin(), runs.end(), &st) == runs.end()) runs.push_back(&st);
+  }
+  identify::SeparableFit sf;
+  sf.sse = std::numeric_limits<double>::infinity();
+  // A fit at the DS18B20's quantisation floor needs no second opinion.
+  const double good_sse = 4.0 * fit_quantisation_var() * static_cast<double>(n);
+  for (const Start* st : runs) {
+    if (sf.sse < good_sse) break;
+    model.theta_grid = {st->theta};
+    identify::SeparableFit f = identify::fit_separable(y, model);
+    if (f.sse < sf.sse) sf = std::move(f);
+  }
+
+  ThermalFit fit;
+  fit.theta = sf.theta;
+  fit.theta.resize(kCount, start[kAmbient]);
+  fit.model = model_of(fit.theta);
+  fit.initial = {fit.theta[kCasing0], fit.theta[kShell0]};
+  fit.ambient_measured = ambient_measured;
+  fit.ambient_c = ambient_measured ? ambient.front() : fit.theta[kAmbient];
+  fit.samples = n;
+  fit.duration_s = record.time_s.back() - record.time_s.front();
+  fit.prediction.assign(sf.prediction.data(), sf.prediction.data() + n);
+  fit.max_command_a = max_command;
+  fit.heating_limit_a = *std::max_element(record.tec_a.begin(), record.tec_a.end());
+  fit.cooling_limit_a = *std::min_element(record.tec_a.begin(), record.tec_a.end());
+
+  const std::vector<double> residual(sf.residual.data(), sf.residual.data() + n);
+  double mean_y = 0.0;
+  for (double v : record.sensor_c) mean_y += v;
+  mean_y /= static_cast<double>(n);
+  double sst = 0.0;
+  for (double v : record.sensor_c) sst += (v - mean_y) * (v - mean_y);
+  fit.rms_c = std::sqrt(sf.sse / static_cast<double>(n));
+  for (double r : residual) fit.max_abs_c = std::max(fit.max_abs_c, std::fabs(r));
+  fit.r_squared = sst > 0.0 ? 1.0 - sf.sse / sst : 0.0;
+  fit.lag1_autocorrelation = identify::lag1_autocorrelation(residual);
+  fit.effective_samples = identify::effective_sample_size(n, fit.lag1_autocorrelation);
+  fit.ljung_box_p = identify::ljung_box_p(residual, 20);
+
+  // Covariance of theta: residual variance, inflated for autocorrelation.
+  const double dof = std::max(1.0, static_cast<double>(n) - static_cast<double>(k_params));
+  const double inflation = static_cast<double>(n) / fit.effective_samples;
+  fit.covariance = Eigen::MatrixXd::Zero(kCount, kCount);
+  fit.covariance.topLeftCorner(static_cast<Eigen::Index>(k_params), static_cast<Eigen::Index>(k_params)) =
+      sf.covariance_unscaled * (sf.sse / dof) * inflation;
+
+  auto sd = [&](std::size_t j) { return std::sqrt(std::max(0.0, fit.covariance(static_cast<Eigen::Index>(j),
+                                                                               static_cast<Eigen::Index>(j)))); };
+  auto log_estimate = [&](const char* name, const char* unit, std::size_t j) {
+    const double v = std::exp(fit.theta[j]);
+    Estimate e{name, unit, v, v * sd(j), sd(j) < 0.5, ""};
+    if (!e.determined) e.note = "not pinned down by this record";
+    return e;
+  };
+  auto plain_estimate = [&](const char* name, const char* unit, std::size_t j, double scale) {
+    Estimate e{name, unit, fit.theta[j], sd(j), sd(j) < scale, ""};
+    if (!e.determined) e.note = "not pinned down by this record";
+    return e;
+  };
+  fit.estimates.push_back(log_estimate("peltier_per_a_s", "1/(A s)", kLogPeltier));
+  fit.estimates.push_back(log_estimate("joule_k_per_a2_s", "K/(A^2 s)", kLogJoule));
+  fit.estimates.push_back(log_estimate("loss_per_s", "1/s", kLogLoss));
+  fit.estimates.push_back(log_estimate("shell_ratio", "", kLogShellRatio));
+  fit.estimates.push_back(log_estimate("shell_tau_s", "s", kLogShellTau));
+  auto derived_estimate = [&](const char* name, const char* unit, const std::function<double(const ThermalModel&)>& f,
+                              double scale) {
+    Estimate e{name, unit, f(fit.model), std_error_of(fit, f), true, ""};
+    e.determined = e.std_error < scale;
+    if (!e.determined) e.note = "not pinned down by this record";
+    return e;
+  };
+  fit.estimates.push_back(plain_estimate("rest_rise_c", "K", kRestRise, 5.0));
+  fit.estimates.push_back(derived_estimate(
+      "internal_k_per_s", "K/s", [](const ThermalModel& m) { return m.internal_k_per_s; },
+      std::fabs(fit.model.internal_k_per_s) + 1e-4));
+  fit.estimates.push_back(
+      derived_estimate("dead_time_s", "s", [](const ThermalModel& m) { return m.dead_time_s; }, 5.0));
+  fit.estimates.push_back(
+      derived_estimate("sensor_lag_s", "s", [](const ThermalModel& m) { return m.sensor_lag_s; }, 20.0));
+  // The rail shows only if a command reached it somewhere.
+  {
+    const ThermalModel& m = fit.model;
+    ThermalState x = fit.initial;
+    for (std::size_t k = 0; k + 1 < n && !fit.rail_reached; ++k) {
+      const double applied = applied_current_a(m, x, record.tec_a[k]);
+      fit.rail_reached = std::fabs(applied - record.tec_a[k]) > 0.01;
+      x = step(m, x, record.tec_a[k], ambient_measured ? 0.5 * (ambient[k] + ambient[k + 1]) : fit.ambient_c,
+               record.time_s[k + 1] - record.time_s[k]);
+    }
+    Estimate e = derived_estimate("rail_a", "A", [](const ThermalModel& fitted) { return fitted.rail_a; },
+                                  0.5 * fit.model.rail_a);
+    if (!fit.rail_reached) {
+      e.determined = false;
+      e.note = "not reached by the record's commands";
+    }
+    fit.estimates.push_back(e);
+  }
+  if (!ambient_measured) fit.estimates.push_back(plain_estimate("ambient_c", "C", kAmbient, 5.0));
+
+  const Estimate& peltier = fit.estimates.front();
+  if (!(peltier.value > kMinPeltierTRatio * peltier.std_error)) {
+    throw std::invalid_argument(fmt("the TEC current has no measurable effect on the casing temperature (Peltier "
+                                    "term %.3g +/- %.3g): is the TEC connected and the casing sensor on the "
+                                    "casing?",
+                                    peltier.value, peltier.std_error));
+  }
+  return fit;
+}
+
+double std_error_of(const ThermalFit& fit, const std::function<double(const ThermalModel&)>& f) {
+  const double f0 = f(fit.model);
+  Eigen::VectorXd grad = Eigen::VectorXd::Zero(kCount);
+  for (std::size_t j = kLogPeltier; j <= kLogRail; ++j) {
+    const double sd = std::sqrt(std::max(0.0, fit.covariance(static_cast<Eigen::Index>(j), static_cast<Eigen::Index>(j))));
+    if (!(sd > 0.0) || !std::isfinite(sd)) continue;
+    std::vector<double> th = fit.theta;
+    const double h = 1e-3 * std::min(sd, 1.0) + 1e-9;
+    th[j] += h;
+    grad(static_cast<Eigen::Index>(j)) = (f(model_of(th)) - f0) / h;
+  }
+  const double var = grad.dot(fit.covariance * grad);
+  return std::sqrt(std::max(0.0, var));
+}
+
+}  // namespace gyrotc::tune

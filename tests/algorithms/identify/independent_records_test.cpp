@@ -1,0 +1,103 @@
+// `identify` on records of the independent generator (tests/support/identify):
+// a different bias curve, 2 s sampling, a two-node casing, white noise plus a
+// Gauss-Markov bias wander, gaps. The thresholds were never chosen on it;
+// the full set is in tools/identify_sweep (family C), these are a few.
+#include <string>
+
+#include "gyrotc/algorithms/identify/series_identify.hpp"
+#include "gyrotc_catch.hpp"
+#include "identify/independent_record.hpp"
+
+using namespace gyrotc::identify;
+using gyrotc::identify_test::IndependentSpec;
+using gyrotc::identify_test::make_independent_record;
+
+namespace {
+
+// Six hours, as in the sweep and in issue 22's trial.
+IndependentSpec spec(std::uint64_t seed, double wander_tau_s) {
+  IndependentSpec s;
+  s.duration_s = 6.0 * 3600.0;
+  s.wander_tau_s = wander_tau_s;
+  s.seed = seed;
+  return s;
+}
+
+// Half the default number of bins (15 s each), for the sanitizer builds.
+SeriesOptions fast() {
+  SeriesOptions o;
+  o.max_bins = 1500;
+  return o;
+}
+
+std::string refusal(const IndependentSpec& s) {
+  try {
+    identify_series(make_independent_record(s), SeriesTarget::gyro_mv, fast());
+  } catch (const std::invalid_argument& e) {
+    return e.what();
+  }
+  return "";
+}
+
+}  // namespace
+
+TEST_CASE("a null record under bias wander of 1000 s correlation time is answered none") {
+  const auto id = identify_series(make_independent_record(spec(201, 1000.0)), SeriesTarget::gyro_mv, fast());
+  CHECK(id.verdict == "none");
+}
+
+TEST_CASE("a null record under bias wander of 300 s correlation time is answered none") {
+  const auto id = identify_series(make_independent_record(spec(202, 300.0)), SeriesTarget::gyro_mv, fast());
+  CHECK(id.verdict == "none");
+}
+
+TEST_CASE("the wander of the noise is estimated, not ignored: its correlation time is of the right order") {
+  const auto id = identify_series(make_independent_record(spec(203, 1000.0)), SeriesTarget::gyro_mv, fast());
+  double wander_sd = 0.0;
+  for (const auto& p : id.baseline_params) {
+    if (p.name == "wander_sd") wander_sd = p.value;
+  }
+  // 0.15 mV of wander in truth; the flexible bias curve soaks up part of it.
+  CHECK(wander_sd > 0.05);
+  CHECK(wander_sd < 0.3);
+}
+
+// Effects stand out of the wander: 1000 bins (22 s) are enough.
+SeriesOptions coarse() {
+  SeriesOptions o;
+  o.max_bins = 1000;
+  return o;
+}
+
+TEST_CASE("a thermal lag across a one-hour gap is named, with its time constant") {
+  IndependentSpec s = spec(204, 300.0);
+  s.lag_tau_s = 120.0;
+  s.gaps = {{3.0 * 3600.0, 3600.0}};
+  const auto id = identify_series(make_independent_record(s), SeriesTarget::gyro_mv, coarse());
+  CHECK(id.verdict == "thermal_lag");
+  REQUIRE_FALSE(id.added.empty());
+  CHECK(id.added[0].params[0].value == Approx(120.0).epsilon(0.2));
+  CHECK(id.note.find("gap") != std::string::npos);
+}
+
+TEST_CASE("a warm-up under jittered sampling is named warm_up") {
+  IndependentSpec s = spec(205, 300.0);
+  s.jitter_s = 0.7;
+  s.warm_up_mv = 1.5;
+  const auto id = identify_series(make_independent_record(s), SeriesTarget::gyro_mv, coarse());
+  CHECK(id.verdict == "warm_up");
+}
+
+TEST_CASE("a record that is mostly gap is refused, saying how much is missing") {
+  IndependentSpec s = spec(206, 300.0);
+  s.gaps = {{1800.0, 13000.0}};  // 60 % of the six hours
+  const std::string why = refusal(s);
+  CHECK(why.find("more than half is missing") != std::string::npos);
+}
+
+TEST_CASE("a record sampled every 30 s is refused: too coarse for dT/dt") {
+  IndependentSpec s = spec(207, 300.0);
+  s.sample_period_s = 30.0;
+  const std::string why = refusal(s);
+  CHECK(why.find("too coarse") != std::string::npos);
+}

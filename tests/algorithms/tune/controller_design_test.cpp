@@ -1,0 +1,128 @@
+// The loop design of `gyrotc tune` (tune/controller_design.hpp): its margin
+// arithmetic against the textbook integrator-with-delay loop, and what it
+// promises about the design it returns.
+#include <cmath>
+
+#include "gyrotc/algorithms/tune/controller_design.hpp"
+#include "gyrotc_catch.hpp"
+
+using namespace gyrotc::tune;
+
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+
+// The plant simulator's defaults as the tune model sees them (per unit of
+// casing + die heat capacity; tune/thermal_model.hpp).
+ThermalModel nominal() {
+  ThermalModel m;
+  const double cc = 301.6;
+  m.peltier_per_a_s = 0.051 / cc;
+  m.joule_k_per_a2_s = 12.0 / (2.0 * cc);
+  m.loss_per_s = 1.0 / (1.0 / 0.6 + 1.0 / 0.105) / cc;
+  m.shell_ratio = 0.6 / 0.105;
+  m.shell_tau_s = 54.0 / 0.705;
+  m.internal_k_per_s = 0.3 / cc;
+  m.dead_time_s = 1.25;
+  m.sensor_lag_s = 0.0;
+  m.rail_a = 12.5 / 12.0;
+  return m;
+}
+
+DesignSpec spec_for_nominal() {
+  DesignSpec s;
+  s.rail_known = true;
+  return s;
+}
+
+}  // namespace
+
+TEST_CASE("loop margins of an integrator with delay under P control match the textbook values") {
+  // A casing that loses nothing and a shell tied to the ambient: the TEC
+  // current integrates into the casing temperature with gain K (K/(A s)).
+  ThermalModel m = nominal();
+  m.loss_per_s = 1e-9;
+  m.shell_ratio = 1e6;
+  m.dead_time_s = 3.0;
+  DesignSpec spec;
+  const double k = m.peltier_per_a_s * (55.0 + kKelvin);  // at ~0 A holding current
+  PidGains p;
+  p.kp = 0.2;
+  p.ki = 0.0;
+  p.kd = 0.0;
+  const LoopMargins lm = loop_margins(m, spec, p, 55.0 - 1e-6);
+  // L = kp K / (j w) e^{-j w tau}, tau = dead time + half a sensor period + half the PID period (hold).
+  const double tau = m.dead_time_s + 0.5 * spec.sensor_period_s + 0.5 * spec.period_s;
+  const double wc = p.kp * k;
+  CHECK(lm.crossover_rad_s == Approx(wc).epsilon(0.02));
+  CHECK(lm.phase_margin_deg == Approx(90.0 - wc * tau * 180.0 / kPi).margin(1.0));
+  const double w180 = kPi / (2.0 * tau);
+  const double sinc = std::sin(w180 * spec.period_s / 2.0) / (w180 * spec.period_s / 2.0);
+  CHECK(lm.gain_margin == Approx(w180 / (p.kp * k * sinc)).epsilon(0.05));
+}
+
+TEST_CASE("the design meets its robustness margin on the model and on every perturbation") {
+  const DesignSpec spec = spec_for_nominal();
+  const ControllerDesign d = design_controller(nominal(), spec);
+  CHECK(d.robust_candidates > 0);
+  CHECK(d.margins.max_sensitivity <= spec.max_sensitivity);
+  CHECK(d.margins.phase_margin_deg >= 30.0);
+  CHECK(d.margins.gain_margin >= 2.0);
+  REQUIRE(d.perturbed.size() == 5);
+  for (const auto& p : d.perturbed) {
+    INFO(p.perturbation << ": Ms " << p.max_sensitivity);
+    CHECK(p.max_sensitivity <= spec.max_sensitivity_perturbed);
+  }
+}
+
+TEST_CASE("the design's own closed-loop run settles near the physical minimum and holds the band") {
+  const ControllerDesign d = design_controller(nominal(), spec_for_nominal());
+  REQUIRE(d.minimum_settle_s > 0.0);
+  CHECK(d.predicted.settle_s >= d.minimum_settle_s);
+  CHECK(d.predicted.settle_s <= 1.05 * d.minimum_settle_s);
+  CHECK(d.predicted.max_error_in_band_c < 0.05);
+}
+
+TEST_CASE("the feed-forward line gives the holding current over the band within 15 mA") {
+  const ThermalModel m = nominal();
+  const ControllerDesign d = design_controller(m, spec_for_nominal());
+  for (double ta = -20.0; ta <= 35.0; ta += 5.0) {
+    const double hold = holding_current_a(m, 55.0, ta, 1.0);
+    CHECK(d.feed_forward_a_per_c * (55.0 - ta) == Approx(hold).margin(0.015));
+  }
+}
+
+TEST_CASE("without an ambient sensor there is no feed-forward") {
+  DesignSpec spec = spec_for_nominal();
+  spec.ambient_sensor = false;
+  CHECK(design_controller(nominal(), spec).feed_forward_a_per_c == 0.0);
+}
+
+TEST_CASE("the stuck-sensor drive threshold lies above every holding current of the rated range") {
+  ThermalModel strong_loss = nominal();
+  strong_loss.loss_per_s *= 1.8;  // holding at -30 C now needs ~0.75 A
+  const ControllerDesign d = design_controller(strong_loss, spec_for_nominal());
+  for (double h : d.holding_a) {
+    if (std::isfinite(h)) CHECK(d.stuck_min_drive_a > std::fabs(h));
+  }
+}
+
+TEST_CASE("the rail limit the controller gets never withholds current the stage has at a steady hold") {
+  const ThermalModel m = nominal();
+  const ControllerDesign d = design_controller(m, spec_for_nominal());
+  REQUIRE(d.rail.known);
+  for (double ta = -30.0; ta <= 45.0; ta += 5.0) {
+    const double hold = holding_current_a(m, 55.0, ta, 1.0);
+    if (!std::isfinite(hold)) continue;
+    const ThermalState x = steady_state(m, hold, ta);
+    const double stage_a = m.rail_a - m.rail_a_per_c() * (x.casing_c - x.shell_c);
+    const double controller_a = d.rail.pos_a - d.rail.a_per_c * (55.0 - ta);  // casing - ambient reading
+    CHECK(controller_a >= stage_a);
+  }
+}
+
+TEST_CASE("a unit that cannot hold the setpoint at the room's temperature is refused") {
+  DesignSpec spec = spec_for_nominal();
+  spec.max_a = 0.1;  // 0.2 A are needed at 16 C
+  CHECK_THROWS_WITH(design_controller(nominal(), spec), Catch::Contains("cannot hold the setpoint"));
+}

@@ -1,0 +1,179 @@
+// `gyrotc tune` on a record as the board writes it (the identification
+// experiment on the simulated board, lockstep at 20 Hz: the thermal behaviour
+// does not depend on the gyro's sample rate).
+#include <nlohmann/json.hpp>
+#include <unistd.h>
+
+#include <cmath>
+#include <filesystem>
+#include <functional>
+#include <fstream>
+#include <iterator>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "gyrotc/app/commands.hpp"
+#include "gyrotc/app/controller_file.hpp"
+#include "gyrotc/app/errors.hpp"
+#include "gyrotc/app/lockstep_runner.hpp"
+#include "gyrotc/app/tuning.hpp"
+#include "gyrotc_catch.hpp"
+#include "test_paths.hpp"
+#include "input_error_of.hpp"
+#include "run_command.hpp"
+
+using namespace gyrotc;
+using gyrotc::test::input_error_of;
+using gyrotc::test::run_command;
+
+namespace {
+
+// One folder per process: ctest runs the test cases as parallel processes.
+const std::string kDir = gyrotc::test::scratch_dir() + "/tune_command_" + std::to_string(::getpid());
+
+std::string read_text(const std::string& path) {
+  std::ifstream in(path);
+  return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+}
+
+// The experiment on the nominal plant, recorded as a board records it.
+const std::string& record_csv() {
+  static const std::string path = [] {
+    std::filesystem::create_directories(kDir);
+    const app::SimulationResult r = app::simulate_tune_experiment(model::PlantParams{}, 16.0, 20.0);
+    const std::string p = kDir + "/record.csv";
+    app::write_board_record_csv(r.rows, p);
+    return p;
+  }();
+  return path;
+}
+
+// The record with one column's cells replaced by f(row index, old cell).
+std::string rewrite_column(const std::string& name, const std::string& column,
+                           const std::function<std::string(std::size_t, const std::string&)>& f,
+                           bool drop = false) {
+  std::istringstream in(read_text(record_csv()));
+  std::ostringstream out;
+  std::string line;
+  std::getline(in, line);
+  std::vector<std::string> header;
+  {
+    std::stringstream cells(line);
+    for (std::string c; std::getline(cells, c, ',');) header.push_back(c);
+  }
+  std::size_t at = header.size();
+  for (std::size_t k = 0; k < header.size(); ++k) at = header[k] == column ? k : at;
+  auto emit = [&](const std::vector<std::string>& cells) {
+    bool first = true;
+    for (std::size_t k = 0; k < cells.size(); ++k) {
+      if (drop && k == at) continue;
+      out << (first ? "" : ",") << cells[k];
+      first = false;
+    }
+    out << "\n";
+  };
+  emit(header);
+  for (std::size_t row = 0; std::getline(in, line); ++row) {
+    std::vector<std::string> cells;
+    std::stringstream s(line);
+    for (std::string c; std::getline(s, c, ',');) cells.push_back(c);
+    if (at < cells.size() && !drop) cells[at] = f(row, cells[at]);
+    emit(cells);
+  }
+  const std::string path = kDir + "/" + name;
+  std::ofstream(path) << out.str();
+  return path;
+}
+
+// A short room for simulate runs.
+std::string flat_profile() {
+  std::filesystem::create_directories(kDir);
+  const std::string path = kDir + "/flat.csv";
+  std::ofstream(path) << "time_s,ambient_c\n0,16\n120,16\n";
+  return path;
+}
+
+// The controller part of a controller file (its [identified] table names the record).
+std::string controller_part(const std::string& path) {
+  const std::string text = read_text(path);
+  return text.substr(0, text.find("[identified]"));
+}
+
+}  // namespace
+
+TEST_CASE("gyrotc tune writes a controller file that simulate can run, and reports the model and the design") {
+  const std::string out = kDir + "/unit/controller.toml";  // its folder is created
+  const std::string printed = run_command(app::add_tune_command, "tune", {"--data", record_csv(), "--out", out, "--json"});
+  const nlohmann::json j = nlohmann::json::parse(printed);
+  CHECK(j.at("fit").at("rms_c").get<double>() < 0.03);
+  CHECK(j.at("parameters").size() >= 9);
+  for (const auto& p : j.at("parameters")) CHECK(p.contains("std_error"));
+  CHECK(j.at("design").at("margins").at("max_sensitivity").get<double>() <= 1.6);
+  CHECK(j.at("design").at("feed_forward_a_per_c").get<double>() > 0.0);
+  CHECK(j.contains("identify_s"));
+  const app::ControllerFile c = app::load_controller_file(out);
+  CHECK(c.setpoint_c == 55.0);
+  CHECK(c.kp > 0.0);
+  CHECK(c.rail.known);
+  const std::string sim =
+      run_command(app::add_simulate_command, "simulate",
+                  {"--profile", flat_profile(), "--controller", out, "--sample-rate-hz", "20", "--json"});
+  CHECK(nlohmann::json::parse(sim).at("controller") == out);
+}
+
+TEST_CASE("tune reads only the board's columns: the simulator's true temperatures change nothing") {
+  // Add what only a simulation has, scrambled: tune must not look at it.
+  std::string text = read_text(record_csv());
+  std::istringstream in(text);
+  std::ostringstream out;
+  std::string line;
+  std::getline(in, line);
+  out << line << ",casing_c,die_c,tec_v\n";
+  for (int row = 0; std::getline(in, line); ++row) out << line << "," << 90 - row % 7 << "," << row % 13 << ",-3\n";
+  const std::string with_truth = kDir + "/with_truth.csv";
+  std::ofstream(with_truth) << out.str();
+  run_command(app::add_tune_command, "tune", {"--data", record_csv(), "--out", kDir + "/a.toml"});
+  run_command(app::add_tune_command, "tune", {"--data", with_truth, "--out", kDir + "/b.toml"});
+  CHECK(controller_part(kDir + "/a.toml") == controller_part(kDir + "/b.toml"));
+}
+
+TEST_CASE("a record without tec_a is refused, saying which column is missing and what tune needs") {
+  const std::string path = rewrite_column("no_tec.csv", "tec_a", {}, true);
+  const std::string why = input_error_of([&] { run_command(app::add_tune_command, "tune", {"--data", path, "--out", kDir + "/x.toml"}); });
+  CHECK(why.find("no_tec.csv: no column 'tec_a'") != std::string::npos);
+  CHECK(why.find("time_s, sensor_c and tec_a") != std::string::npos);
+}
+
+TEST_CASE("a record from a board without the ambient sensor gives a controller without feed-forward") {
+  const std::string path = rewrite_column("no_ambient.csv", "ambient_c", [](std::size_t, const std::string&) { return std::string("nan"); });
+  run_command(app::add_tune_command, "tune", {"--data", path, "--out", kDir + "/no_ambient.toml"});
+  CHECK(app::load_controller_file(kDir + "/no_ambient.toml").feed_forward_a_per_c == 0.0);
+}
+
+TEST_CASE("a record whose current never moves is refused as without excitation, naming the file") {
+  const std::string path = rewrite_column("constant.csv", "tec_a", [](std::size_t, const std::string&) { return std::string("0.25"); });
+  const std::string why = input_error_of([&] { run_command(app::add_tune_command, "tune", {"--data", path, "--out", kDir + "/x.toml"}); });
+  CHECK(why.find("constant.csv: no excitation") != std::string::npos);
+}
+
+TEST_CASE("a record whose casing reading never moves is refused as flat") {
+  const std::string path = rewrite_column("flat_sensor.csv", "sensor_c", [](std::size_t, const std::string&) { return std::string("24.5"); });
+  const std::string why = input_error_of([&] { run_command(app::add_tune_command, "tune", {"--data", path, "--out", kDir + "/x.toml"}); });
+  CHECK(why.find("flat_sensor.csv: flat record") != std::string::npos);
+}
+
+TEST_CASE("a record with a cell that is not a number is refused naming its line") {
+  const std::string path = rewrite_column("bad_cell.csv", "sensor_c", [](std::size_t row, const std::string& cell) {
+    return row == 41 ? std::string("hot") : cell;
+  });
+  const std::string why = input_error_of([&] { run_command(app::add_tune_command, "tune", {"--data", path, "--out", kDir + "/x.toml"}); });
+  CHECK(why.find("bad_cell.csv:43: column 'sensor_c'") != std::string::npos);
+}
+
+TEST_CASE("simulate --controller refuses what is neither a preset nor a controller file") {
+  const std::string why = input_error_of([&] {
+    run_command(app::add_simulate_command, "simulate", {"--profile", flat_profile(), "--controller", "fast"});
+  });
+  CHECK(why.find("--controller 'fast': neither paper, tuned, off nor a controller file") != std::string::npos);
+}

@@ -1,0 +1,61 @@
+#pragma once
+
+#include <cstdint>
+#include <utility>
+#include <vector>
+
+#include "gyrotc/algorithms/identify/series_identify.hpp"
+
+// An independent generator of chamber records, to test `gyrotc identify` on
+// data it was not tuned on (issue 22). Written separately from
+// algorithms/identify/record_generator.cpp (the generator the thresholds were
+// chosen on) and sharing nothing with it or with model::GyroEffectState:
+//  - its own bias curve (not seed Table 2), slope up to ~1.3 mV/C;
+//  - samples every 2 s by default, optionally jittered, with gaps;
+//  - a two-node casing: chamber -> shell -> casing (the DS18B20's node);
+//  - the DS18B20 reads the casing 0.75 s late (conversion), in 0.0625 C steps;
+//  - gyro noise: white plus a Gauss-Markov wander of the bias (correlation
+//    time wander_tau_s), the bias instability of a real gyro;
+//  - hidden effects implemented here from their physical definitions, and
+//    one outside the library of `identify` (stress relaxation).
+namespace gyrotc::identify_test {
+
+struct IndependentSpec {
+  double duration_s = 6.0 * 3600.0;
+  double sample_period_s = 2.0;
+  double jitter_s = 0.0;  // sample times uniformly within +/- this of the grid
+  double low_c = -30.0;
+  double high_c = 70.0;
+  double min_ramp_c_per_min = 0.3;  // chamber ramps at random rates in this range
+  double max_ramp_c_per_min = 1.5;
+  double shell_tau_s = 600.0;   // chamber -> shell
+  double casing_tau_s = 200.0;  // shell -> casing
+  double white_mv = 0.15;   // per sample
+  double wander_mv = 0.15;  // stationary standard deviation of the wander
+  double wander_tau_s = 300.0;
+  // Samples inside [start, start + length) are dropped.
+  std::vector<std::pair<double, double>> gaps;
+
+  // Hidden effects (0 = off).
+  double lag_tau_s = 0.0;            // the die lags the casing (thermal_lag)
+  double rate_mv_per_c_per_s = 0.0;  // rate_sensitivity, on the casing's dT/dt
+  double hysteresis_mv = 0.0;        // ramp_hysteresis: h tanh(rate / r0)
+  double hysteresis_r0_c_per_s = 0.003;
+  double warm_up_mv = 0.0;           // warm_up: a exp(-t / tau)
+  double warm_up_tau_s = 900.0;
+  double drift_mv_per_h = 0.0;       // linear_drift
+  double ambient_mv_per_c = 0.0;     // ambient_sensitivity, about 25 C
+  // Not in identify's library: after the casing first exceeds 50 C the bias
+  // relaxes by this much over 1800 s (package stress relief).
+  double relaxation_mv = 0.0;
+  // Not in the library either: a periodic disturbance of the bias (say, the
+  // lab's air conditioning cycling), amplitude and period.
+  double periodic_mv = 0.0;
+  double periodic_s = 5400.0;
+
+  std::uint64_t seed = 1;
+};
+
+identify::SeriesRecord make_independent_record(const IndependentSpec& spec);
+
+}  // namespace gyrotc::identify_test

@@ -1,0 +1,489 @@
+// The robustness suite of `gyrotc tune` (issue 23), kept out of the test
+// command: for every plant variant (each thermal, TEC and stage parameter of
+// model::PlantParams at 0.5x and 1.5x, and random combinations of all of them
+// within 0.5x..1.5x), the whole chain a user runs:
+//   simulate --profile tune --plant P  ->  tune --data record.csv  ->
+//   simulate --profile fig26 --plant P --controller controller.toml
+// and the same fig26 run with the fixed `tuned` and the seed's `paper`
+// controllers. Per variant it also measures the plant's physical minimum
+// (16 C to the settle band at full heating current) and whether the plant can
+// hold 55 C at all over the fig26 programme (-30..45 C ambient) with its
+// current limit and rails. Writes the table and plots of docs/TUNING.md.
+//
+//   tune_suite                         the full suite (a few minutes, Release)
+//   tune_suite --quick                 nominal and four variants
+//   tune_suite --random N --seed S     N random combinations (default 20, seed 1)
+//   tune_suite --work DIR              records, plant and controller files (default /tmp/tune_suite)
+//   tune_suite --out DIR               plots (default docs/tuning)
+//   tune_suite --markdown FILE         the results section of FILE (between the
+//                                      "tune_suite:begin/end" markers; default docs/TUNING.md)
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <ctime>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <random>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "gyrotc/algorithms/fit/bias_model.hpp"
+#include "gyrotc/algorithms/model/plant.hpp"
+#include "gyrotc/app/chamber_profile_file.hpp"
+#include "gyrotc/app/controller_file.hpp"
+#include "gyrotc/app/errors.hpp"
+#include "gyrotc/app/lockstep_runner.hpp"
+#include "gyrotc/app/plant_file.hpp"
+#include "gyrotc/app/svg_plot.hpp"
+#include "gyrotc/app/tuning.hpp"
+
+namespace {
+
+using namespace gyrotc;
+using model::PlantParams;
+
+// The thermal behaviour does not depend on the gyro's sample rate: 20 Hz keeps
+// each fig26 run to a fraction of a second (the tests do the same).
+constexpr double kSampleRateHz = 20.0;
+constexpr double kSetpointC = 55.0;
+constexpr double kRoomC = 16.0;  // seed Fig. 26: control starts at 16 C
+
+struct Parameter {
+  const char* group;
+  const char* name;
+  double PlantParams::*field;
+  double PlantParams::*twin;  // moved together (the supply rails), or nullptr
+};
+
+const std::vector<Parameter>& parameters() {
+  static const std::vector<Parameter> p = {
+      {"thermal", "shell_capacity_j_per_k", &PlantParams::shell_capacity_j_per_k, nullptr},
+      {"thermal", "casing_capacity_j_per_k", &PlantParams::casing_capacity_j_per_k, nullptr},
+      {"thermal", "die_capacity_j_per_k", &PlantParams::die_capacity_j_per_k, nullptr},
+      {"thermal", "shell_ambient_w_per_k", &PlantParams::shell_ambient_w_per_k, nullptr},
+      {"thermal", "shell_casing_leak_w_per_k", &PlantParams::shell_casing_leak_w_per_k, nullptr},
+      {"thermal", "casing_die_w_per_k", &PlantParams::casing_die_w_per_k, nullptr},
+      {"thermal", "internal_power_w", &PlantParams::internal_power_w, nullptr},
+      {"tec", "seebeck_v_per_k", &PlantParams::tec_seebeck_v_per_k, nullptr},
+      {"tec", "resistance_ohm", &PlantParams::tec_resistance_ohm, nullptr},
+      {"tec", "conductance_w_per_k", &PlantParams::tec_conductance_w_per_k, nullptr},
+      {"stage", "current_limit_a", &PlantParams::current_limit_a, nullptr},
+      {"stage", "supply_pos_v/supply_neg_v", &PlantParams::supply_pos_v, &PlantParams::supply_neg_v},
+      {"stage", "rail_headroom_v", &PlantParams::rail_headroom_v, nullptr},
+      {"stage", "gain_a_per_v", &PlantParams::gain_a_per_v, nullptr},
+      {"stage", "opa548_theta_ja_c_per_w", &PlantParams::opa548_theta_ja_c_per_w, nullptr},
+  };
+  return p;
+}
+
+struct Variant {
+  std::string name;
+  PlantParams plant;
+  bool random = false;
+};
+
+struct LoopFigures {
+  double settle_s = -1.0;
+  double error_c = -1.0;  // < 0: never settled
+  std::vector<app::RecordRow> rows;
+};
+
+struct Outcome {
+  Variant variant;
+  bool feasible = true;
+  std::string infeasible_why;
+  double minimum_s = -1.0;
+  double tune_s = 0.0;
+  double fit_rms_c = 0.0;
+  bool rail_reached = false;
+  std::string tune_error;  // tune refused the record
+  LoopFigures data, tuned, paper;
+  bool pass = false;
+  std::string verdict;
+};
+
+// Steady casing temperature at an ambient with a commanded current.
+double steady_casing_c(PlantParams p, double ambient_c, double command_a) {
+  p.initial_temp_c = kSetpointC;
+  p.max_thermal_step_s = 20.0;
+  model::Plant plant(p, 1);
+  plant.set_ambient_c(ambient_c);
+  plant.set_tec_enabled(true);
+  plant.set_tec_drive_v(0.5 * p.dac_vref_v + command_a / p.gain_a_per_v);
+  plant.advance(200000.0);
+  plant.flush();
+  return plant.opa548_thermal_shutdown() ? -1e9 : plant.casing_c();
+}
+
+// Can the plant hold the setpoint at every ambient of the fig26 programme
+// (-30 .. 45 C)? A plant that cannot hold it at -30 C (segment J) comes back
+// into the -20..35 C band (segment K) far below the setpoint whatever the
+// controller does.
+bool holds_band(const PlantParams& p, std::string& why) {
+  for (double ambient : {-30.0, 45.0}) {
+    const double hot = steady_casing_c(p, ambient, p.current_limit_a);
+    const double cold = steady_casing_c(p, ambient, -p.current_limit_a);
+    if (hot < kSetpointC) {
+      char buf[160];
+      std::snprintf(buf, sizeof buf, "at %.0f C ambient full heating holds only %.1f C", ambient, hot);
+      why = buf;
+      return false;
+    }
+    if (cold > kSetpointC) {
+      char buf[160];
+      std::snprintf(buf, sizeof buf, "at %.0f C ambient full cooling holds only %.1f C", ambient, cold);
+      why = buf;
+      return false;
+    }
+  }
+  return true;
+}
+
+LoopFigures fig26(const PlantParams& plant, const app::ControllerConfig& controller) {
+  static const fit::BiasModel calibration = fit::BiasModel::paper_reference();
+  app::SimulationSetup s;
+  s.plant = plant;
+  s.controller = controller;
+  s.calibration = &calibration;
+  s.sample_rate_hz = kSampleRateHz;
+  app::SimulationResult r = app::run_simulation(s, app::chamber_profile_by_name("fig26", GYROTC_DATA_DIR));
+  LoopFigures f;
+  f.settle_s = r.summary.settle_s;
+  f.error_c = r.summary.settle_s >= 0.0 ? r.summary.max_abs_error_c_in_band : -1.0;
+  f.rows = std::move(r.rows);
+  return f;
+}
+
+Outcome run_variant(const Variant& v, const std::string& dir) {
+  Outcome o;
+  o.variant = v;
+  std::filesystem::create_directories(dir);
+  app::save_plant(v.plant, dir + "/plant.toml");
+  o.minimum_s = app::plant_minimum_warm_up_s(v.plant, kRoomC, kSetpointC - 0.3);
+  o.feasible = holds_band(v.plant, o.infeasible_why);
+
+  // The identification experiment, recorded as the board records it.
+  const std::string record_csv = dir + "/record.csv";
+  app::write_board_record_csv(app::simulate_tune_experiment(v.plant, kRoomC, kSampleRateHz).rows, record_csv);
+
+  // tune, from the file alone.
+  const std::string controller_toml = dir + "/controller.toml";
+  try {
+    const app::TuneInput input = app::read_tune_record(record_csv);
+    // CPU time: the wall clock of a shared machine is noise.
+    const std::clock_t cpu_start = std::clock();
+    const app::TuneResult t = app::tune_from_record(input);
+    o.tune_s = static_cast<double>(std::clock() - cpu_start) / CLOCKS_PER_SEC;
+    o.fit_rms_c = t.fit.rms_c;
+    o.rail_reached = t.fit.rail_reached;
+    app::save_controller_file(t.controller, controller_toml, app::tune_informational_toml(t, record_csv));
+  } catch (const app::InputError& e) {
+    o.tune_error = e.what();
+  }
+  if (o.tune_error.empty()) {
+    const app::ControllerConfig c = app::apply_controller_file(
+        app::load_controller_file(controller_toml),
+        app::controller_preset(app::ControllerMode::paper, v.plant), controller_toml);
+    o.data = fig26(v.plant, c);
+  }
+  o.tuned = fig26(v.plant, app::controller_preset(app::ControllerMode::tuned, v.plant));
+  o.paper = fig26(v.plant, app::controller_preset(app::ControllerMode::paper, v.plant));
+
+  // The issue's criteria, against the seed's controller on the same plant.
+  std::vector<std::string> fails;
+  if (!o.tune_error.empty()) fails.push_back("tune refused the record");
+  if (o.data.error_c < 0.0) fails.push_back("never settled");
+  if (o.data.error_c > 0.05) fails.push_back("error > 0.05 C");
+  if (o.paper.settle_s >= 0.0 && (o.data.settle_s < 0.0 || o.data.settle_s > o.paper.settle_s)) {
+    fails.push_back("slower than paper");
+  }
+  if (o.paper.error_c >= 0.0 && o.data.error_c > o.paper.error_c) fails.push_back("errs more than paper");
+  o.pass = fails.empty();
+  for (const auto& f : fails) o.verdict += (o.verdict.empty() ? "" : "; ") + f;
+  if (o.verdict.empty()) o.verdict = "pass";
+  return o;
+}
+
+std::string num(double v, const char* format) {
+  if (v < 0.0) return "never";
+  char buf[32];
+  std::snprintf(buf, sizeof buf, format, v);
+  return buf;
+}
+
+std::string factors_of(const PlantParams& p) {
+  const PlantParams nominal;
+  std::string out;
+  for (const auto& q : parameters()) {
+    const double f = p.*q.field / (nominal.*q.field);
+    if (std::fabs(f - 1.0) < 1e-9) continue;
+    char buf[96];
+    std::snprintf(buf, sizeof buf, "%s%s x%.2f", out.empty() ? "" : ", ", q.name, f);
+    out += buf;
+  }
+  return out.empty() ? "nominal" : out;
+}
+
+// Casing error of the three controllers over fig26.
+void plot_variant(const Outcome& o, const std::string& path) {
+  app::plot::Figure f;
+  f.title = "fig26 on " + o.variant.name + ": casing - 55 C";
+  f.x.title = "time (s)";
+  app::plot::Panel panel;
+  panel.y.title = "casing error (C)";
+  const std::pair<const char*, const LoopFigures*> loops[] = {
+      {"tuned from data", &o.data}, {"tuned (fixed)", &o.tuned}, {"paper", &o.paper}};
+  for (const auto& [label, loop] : loops) {
+    app::plot::Series s;
+    s.label = label;
+    // Every 10th second (the file stays small; the holds change over minutes).
+    for (std::size_t k = 0; k < loop->rows.size(); k += 10) {
+      s.x.push_back(loop->rows[k].time_s);
+      s.y.push_back(std::clamp(loop->rows[k].casing_c - kSetpointC, -0.5, 0.5));
+    }
+    if (!s.x.empty()) panel.series.push_back(std::move(s));
+  }
+  app::plot::Series ambient;
+  ambient.label = "ambient";
+  ambient.right_axis = true;
+  ambient.dashed = true;
+  for (std::size_t k = 0; k < o.paper.rows.size(); k += 10) {
+    ambient.x.push_back(o.paper.rows[k].time_s);
+    ambient.y.push_back(o.paper.rows[k].ambient_c);
+  }
+  panel.y2.title = "ambient (C)";
+  panel.series.push_back(ambient);
+  f.panels = {panel};
+  app::plot::write_svg(f, path);
+}
+
+// In-band error and settling (relative to the physical minimum) of every variant.
+void plot_summary(const std::vector<Outcome>& outcomes, const std::string& path) {
+  app::plot::Figure f;
+  f.title = "tune_suite: every variant (x = variant number of the table)";
+  f.x.title = "variant";
+  app::plot::Panel errors;
+  errors.y.title = "max |error| in band (C)";
+  errors.y.scale = app::plot::Scale::log;
+  app::plot::Panel settle;
+  settle.y.title = "settle / physical minimum";
+  const char* labels[] = {"tuned from data", "tuned (fixed)", "paper"};
+  for (int c = 0; c < 3; ++c) {
+    app::plot::Series e;
+    app::plot::Series s;
+    e.label = labels[c];
+    s.label = labels[c];
+    for (std::size_t k = 0; k < outcomes.size(); ++k) {
+      const Outcome& o = outcomes[k];
+      const LoopFigures& l = c == 0 ? o.data : (c == 1 ? o.tuned : o.paper);
+      e.x.push_back(static_cast<double>(k + 1));
+      e.y.push_back(l.error_c > 0.0 ? l.error_c : std::nan(""));
+      s.x.push_back(static_cast<double>(k + 1));
+      s.y.push_back(l.settle_s >= 0.0 && o.minimum_s > 0.0 ? l.settle_s / o.minimum_s : std::nan(""));
+    }
+    errors.series.push_back(e);
+    settle.series.push_back(s);
+  }
+  app::plot::Series limit;
+  limit.label = "0.05 C";
+  limit.dashed = true;
+  limit.x = {1.0, static_cast<double>(outcomes.size())};
+  limit.y = {0.05, 0.05};
+  errors.series.push_back(limit);
+  f.panels = {errors, settle};
+  app::plot::write_svg(f, path);
+}
+
+std::string table(const std::vector<Outcome>& outcomes, const std::string& plots_dir) {
+  std::ostringstream md;
+  md << "| # | variant | feasible | t_min s | tune CPU s | fit rms C | data settle s | data err C | tuned settle s | "
+        "tuned err C | paper settle s | paper err C | verdict |\n";
+  md << "|---|---|---|---|---|---|---|---|---|---|---|---|---|\n";
+  for (std::size_t k = 0; k < outcomes.size(); ++k) {
+    const Outcome& o = outcomes[k];
+    md << "| " << k + 1 << " | " << o.variant.name << " | "
+       << (o.feasible ? std::string("yes") : "no: " + o.infeasible_why) << " | " << num(o.minimum_s, "%.0f") << " | "
+       << (o.tune_error.empty() ? num(o.tune_s, "%.2f") : "refused") << " | "
+       << (o.tune_error.empty() ? num(o.fit_rms_c, "%.3f") : "-") << " | " << num(o.data.settle_s, "%.0f") << " | "
+       << num(o.data.error_c, "%.3f") << " | " << num(o.tuned.settle_s, "%.0f") << " | "
+       << num(o.tuned.error_c, "%.3f") << " | " << num(o.paper.settle_s, "%.0f") << " | "
+       << num(o.paper.error_c, "%.3f") << " | " << o.verdict << " |\n";
+  }
+  (void)plots_dir;
+  return md.str();
+}
+
+struct Options {
+  bool quick = false;
+  int random = 20;
+  unsigned seed = 1;
+  std::string work = "/tmp/tune_suite";
+  std::string out = std::string(GYROTC_DATA_DIR) + "/../docs/tuning";
+  std::string markdown = std::string(GYROTC_DATA_DIR) + "/../docs/TUNING.md";
+};
+
+std::vector<Variant> variants(const Options& o) {
+  std::vector<Variant> out;
+  out.push_back({"nominal", PlantParams{}, false});
+  for (const auto& q : parameters()) {
+    for (double f : {0.5, 1.5}) {
+      if (o.quick && !(std::strcmp(q.name, "casing_capacity_j_per_k") == 0 ||
+                       std::strcmp(q.name, "conductance_w_per_k") == 0)) {
+        continue;
+      }
+      Variant v;
+      v.plant.*q.field *= f;
+      if (q.twin != nullptr) v.plant.*q.twin *= f;
+      char buf[96];
+      std::snprintf(buf, sizeof buf, "%s x%.1f", q.name, f);
+      v.name = buf;
+      out.push_back(v);
+    }
+  }
+  std::mt19937_64 rng(o.seed);
+  std::uniform_real_distribution<double> factor(0.5, 1.5);
+  for (int k = 0; k < (o.quick ? 0 : o.random); ++k) {
+    Variant v;
+    v.random = true;
+    for (const auto& q : parameters()) {
+      const double f = factor(rng);
+      v.plant.*q.field *= f;
+      if (q.twin != nullptr) v.plant.*q.twin *= f;
+    }
+    v.name = "random " + std::to_string(k + 1);
+    out.push_back(v);
+  }
+  return out;
+}
+
+int run(const Options& opt) {
+  const auto start = std::chrono::steady_clock::now();
+  std::filesystem::create_directories(opt.out);
+  std::vector<Outcome> outcomes;
+  const std::vector<Variant> all = variants(opt);
+  for (std::size_t k = 0; k < all.size(); ++k) {
+    std::string slug = all[k].name;
+    for (char& c : slug) {
+      if (!std::isalnum(static_cast<unsigned char>(c)) && c != '.') c = '_';
+    }
+    outcomes.push_back(run_variant(all[k], opt.work + "/" + std::to_string(k + 1) + "_" + slug));
+    const Outcome& o = outcomes.back();
+    std::fprintf(stderr, "[%zu/%zu] %-36s t_min %5.0f | data %5.0f s %.3f C | tuned %5.0f s %.3f C | paper %5.0f s %.3f C | %s%s\n",
+                 k + 1, all.size(), o.variant.name.c_str(), o.minimum_s, o.data.settle_s, o.data.error_c,
+                 o.tuned.settle_s, o.tuned.error_c, o.paper.settle_s, o.paper.error_c, o.verdict.c_str(),
+                 o.feasible ? "" : " (infeasible plant)");
+  }
+  // Plots: the summary and the variants the issue named.
+  plot_summary(outcomes, opt.out + "/summary.svg");
+  for (std::size_t k = 0; k < outcomes.size(); ++k) {
+    const std::string& n = outcomes[k].variant.name;
+    if (n == "nominal" || n == "casing_capacity_j_per_k x0.5" || n == "conductance_w_per_k x1.5" ||
+        n == "shell_ambient_w_per_k x1.5") {
+      std::string slug = n;
+      for (char& c : slug) {
+        if (!std::isalnum(static_cast<unsigned char>(c)) && c != '.') c = '_';
+      }
+      plot_variant(outcomes[k], opt.out + "/fig26_" + slug + ".svg");
+    }
+  }
+
+  std::size_t feasible = 0;
+  std::size_t passed = 0;
+  std::size_t passed_feasible = 0;
+  double worst_error = 0.0;
+  double worst_tune_s = 0.0;
+  for (const auto& o : outcomes) {
+    feasible += o.feasible ? 1 : 0;
+    passed += o.pass ? 1 : 0;
+    passed_feasible += o.pass && o.feasible ? 1 : 0;
+    if (o.feasible) worst_error = std::max(worst_error, o.data.error_c);
+    worst_tune_s = std::max(worst_tune_s, o.tune_s);
+  }
+  const Outcome& nominal = outcomes.front();
+  std::ostringstream md;
+  md << "<!-- tune_suite:begin (written by tools/tune_suite; do not edit by hand) -->\n";
+  md << "Run: `tune_suite" << (opt.quick ? " --quick" : "") << " --random " << opt.random << " --seed " << opt.seed
+     << "`, " << outcomes.size() << " variants, "
+     << num(std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(), "%.0f") << " s.\n\n";
+  md << "- Nominal plant: physical minimum " << num(nominal.minimum_s, "%.1f") << " s; tuned from data settles in "
+     << num(nominal.data.settle_s, "%.0f") << " s ("
+     << num(nominal.minimum_s > 0.0 ? 100.0 * (nominal.data.settle_s / nominal.minimum_s - 1.0) : -1.0, "%.1f")
+     << " % above it), in-band error " << num(nominal.data.error_c, "%.3f") << " C.\n";
+  md << "- " << passed_feasible << " of " << feasible << " feasible variants pass every criterion; "
+     << passed - passed_feasible << " of " << outcomes.size() - feasible
+     << " infeasible ones (the plant cannot hold 55 C at every ambient of fig26, -30..45 C) pass too.\n";
+  md << "- Largest in-band error of the tuned-from-data loop on a feasible variant: " << num(worst_error, "%.3f")
+     << " C. Slowest `tune` (identify + design, CPU time, Release): " << num(worst_tune_s, "%.2f") << " s.\n\n";
+  md << table(outcomes, opt.out);
+  md << "\nThe random combinations (every parameter's factor uniform in 0.5..1.5):\n\n";
+  for (std::size_t k = 0; k < outcomes.size(); ++k) {
+    if (outcomes[k].variant.random) md << "- " << k + 1 << ": " << factors_of(outcomes[k].variant.plant) << "\n";
+  }
+  md << "\n![every variant](tuning/summary.svg)\n\n";
+  md << "![nominal](tuning/fig26_nominal.svg)\n![casing capacity x0.5](tuning/fig26_casing_capacity_j_per_k_x0.5.svg)\n"
+        "![TEC conductance x1.5](tuning/fig26_conductance_w_per_k_x1.5.svg)\n"
+        "![shell to ambient x1.5](tuning/fig26_shell_ambient_w_per_k_x1.5.svg)\n";
+  md << "<!-- tune_suite:end -->\n";
+
+  std::string doc;
+  {
+    std::ifstream in(opt.markdown);
+    std::stringstream text;
+    text << in.rdbuf();
+    doc = text.str();
+  }
+  const auto begin = doc.find("<!-- tune_suite:begin");
+  const auto end_marker = std::string("<!-- tune_suite:end -->\n");
+  const auto end = doc.find(end_marker);
+  if (begin == std::string::npos || end == std::string::npos) {
+    doc += "\n" + md.str();
+  } else {
+    doc = doc.substr(0, begin) + md.str() + doc.substr(end + end_marker.size());
+  }
+  std::ofstream(opt.markdown) << doc;
+  std::printf("%s", md.str().c_str());
+  return passed_feasible == feasible ? 0 : 1;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  Options o;
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    auto value = [&](const char* name) {
+      if (i + 1 >= argc) {
+        std::fprintf(stderr, "tune_suite: %s needs a value\n", name);
+        std::exit(2);
+      }
+      return std::string(argv[++i]);
+    };
+    if (a == "--quick") {
+      o.quick = true;
+    } else if (a == "--random") {
+      o.random = std::atoi(value("--random").c_str());
+    } else if (a == "--seed") {
+      o.seed = static_cast<unsigned>(std::strtoul(value("--seed").c_str(), nullptr, 10));
+    } else if (a == "--work") {
+      o.work = value("--work");
+    } else if (a == "--out") {
+      o.out = value("--out");
+    } else if (a == "--markdown") {
+      o.markdown = value("--markdown");
+    } else {
+      std::fprintf(stderr, "usage: tune_suite [--quick] [--random N] [--seed S] [--work DIR] [--out DIR] [--markdown FILE]\n");
+      return 2;
+    }
+  }
+  try {
+    return run(o);
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "tune_suite: error: %s\n", e.what());
+    return 1;
+  }
+}
