@@ -167,7 +167,7 @@ in_chroot sh -ec "
         -DGYROTC_BUILD_TESTS=OFF -DGYROTC_BUILD_BENCH=OFF ${toolchain:+-DCMAKE_TOOLCHAIN_FILE=$toolchain}
   cmake --build /build -j$(nproc)
   rm -f /build/gyrotc_*.deb
-  cd /build && cpack -G DEB" >"$logs/build.log" 2>&1 || { [ -n "$root_pid" ] && kill "$root_pid" 2>/dev/null; die build "the DEB did not build" "$logs/build.log"; }
+  cd /build && cpack -G DEB" >"$logs/build.log" 2>&1 || { [ -n "$root_pid" ] && kill "$root_pid" 2>/dev/null || true; die build "the DEB did not build" "$logs/build.log"; }
 deb=$(cd "$bc/build" && ls gyrotc_*_"$debarch".deb)
 say "      $deb: Depends: $(dpkg-deb -f "$bc/build/$deb" Depends)"
 
@@ -192,7 +192,7 @@ if [ -n "$root_pid" ]; then
     dpkg-deb -x ${kimg}_*.deb image
     dpkg-deb -x ${kcommon}_*.deb /
     dpkg-deb -x ${kheaders}_*.deb /
-    depmod -b /kernel/image $kver
+    depmod -b /kernel/image/usr $kver  # trixie kernels ship their modules under /usr/lib/modules
     # gpio-sim and the interrupt simulator it needs (Debian builds neither).
     dpkg-deb --fsys-tarfile ${ksrc}_*.deb | tar -xOf - ./usr/src/$ksrc.tar.xz | xz -dc |
       tar -xf - --strip-components=1 $ksrc/drivers/gpio/gpio-sim.c $ksrc/kernel/irq/irq_sim.c
@@ -202,12 +202,13 @@ if [ -n "$root_pid" ]; then
     grep -q 'generic_handle_irq(irqnum);' gpio-sim/irq-sim.c || { echo 'irq_sim.c: the irq_to_desc() call to replace is not there'; exit 1; }
     printf 'obj-m := gpio-sim.o\ngpio-sim-y := gpio-sim-main.o irq-sim.o\n' >gpio-sim/Kbuild
     make -C /usr/src/$kheaders M=/kernel/gpio-sim ARCH=$karch CROSS_COMPILE=${triple}- CC=$cc modules
-    rm -f *.deb" >"$logs/kernel.log" 2>&1 || { kill "$root_pid" 2>/dev/null; die kernel "the kernel or gpio-sim failed" "$logs/kernel.log"; }
+    rm -f *.deb" >"$logs/kernel.log" 2>&1 || { kill "$root_pid" 2>/dev/null || true; die kernel "the kernel or gpio-sim failed" "$logs/kernel.log"; }
   say "      waiting for the root (log: $logs/root.log)"
   wait "$root_pid" || die root "mmdebstrap of the $debarch root failed" "$logs/root.log"
   # Debian's kernel, unpacked here (its modules in the root), no initramfs
   # tool run under emulation: the whole root is the initramfs.
   cp "$bc/kernel/image/boot/vmlinuz-$kver" "$rd/vmlinuz"
+  mkdir -p "$rd/root/usr/lib/modules"  # else cp makes the version folder itself .../modules
   cp -a "$bc/kernel/image/usr/lib/modules/$kver" "$rd/root/usr/lib/modules/"
   cp "$bc/kernel/gpio-sim/gpio-sim.ko" "$rd/gpio-sim.ko"
   echo "$kimg $kpkgver" >"$rd/kernel"
