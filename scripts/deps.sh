@@ -9,7 +9,7 @@
 #            architecture arm64 if it is missing, and says so first)
 #   armhf    the same for 32-bit ARM hard-float
 #   bench    cyclictest, GNU time and jq for scripts/bench.sh
-#   vm       debootstrap, qemu-system and the kernel tools for scripts/vm-test.sh
+#   vm       mmdebstrap, qemu-system and qemu-user for scripts/vm-test.sh
 #   yocto    OE's host tools and the en_US.UTF-8 locale for deploy/yocto/check-layer.sh
 # Runs apt-get directly as root, through sudo otherwise.
 set -euo pipefail
@@ -48,8 +48,11 @@ for w in "${want[@]}"; do
     bench)
       pkgs+=(rt-tests time jq) ;;  # cyclictest, /usr/bin/time, JSON for scripts/bench.sh
     vm)
-      pkgs+=(debootstrap qemu-system-arm qemu-system-x86 qemu-user-static binfmt-support
-             e2fsprogs cpio zstd xz-utils dpkg-dev kmod) ;;
+      # mmdebstrap and arch-test for the roots, qemu-system for the boards,
+      # qemu-user through binfmt_misc for a foreign root's maintainer scripts
+      # (qemu-user-static: Debian 12's static build; on 13 it pulls qemu-user
+      # and qemu-user-binfmt), cpio for the initramfs
+      pkgs+=(mmdebstrap arch-test qemu-system-arm qemu-system-x86 qemu-user-static cpio) ;;
     yocto)
       pkgs+=(build-essential python3 git gawk wget diffstat chrpath cpio file lz4 zstd rpcsvc-proto
              patch bzip2 locales hostname)
