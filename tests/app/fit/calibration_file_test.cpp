@@ -66,7 +66,7 @@ TEST_CASE("polynomial, piecewise, spline, BP network and the paper reference sur
 }
 
 TEST_CASE("save_calibration writes a file load_calibration reads") {
-  const auto path = std::filesystem::temp_directory_path() / "gyrotc_calibration_test.toml";
+  const auto path = std::filesystem::path(gyrotc::test::scratch_dir()) / "calibration_test.toml";
   gyrotc::app::save_calibration(BiasModel::paper_reference(), path.string());
   const BiasModel back = gyrotc::app::load_calibration(path.string());
   CHECK(back.kind() == BiasModel::Kind::paper_reference);

@@ -9,6 +9,7 @@
 #include "gyrotc/app/commands.hpp"
 #include "gyrotc/app/errors.hpp"
 #include "gyrotc_catch.hpp"
+#include "test_paths.hpp"
 #include "run_command.hpp"
 
 using namespace gyrotc::app;
@@ -19,7 +20,7 @@ namespace {
 // A fresh scratch folder for one test.
 struct Scratch {
   fs::path dir;
-  explicit Scratch(const std::string& name) : dir(fs::temp_directory_path() / ("gyrotc_output_" + name)) {
+  explicit Scratch(const std::string& name) : dir(fs::path(gyrotc::test::scratch_dir()) / ("output_" + name)) {
     fs::remove_all(dir);
     fs::create_directories(dir);
   }
