@@ -22,27 +22,32 @@ int __real_flock(int fd, int operation);
 
 int __real_open64(const char* path, int flags, ...);
 
+// The fake's descriptor when path is the fake spidev, else -1.
+int open_fake(const char* path, int flags) {
+  FakeSpidev* fake = FakeSpidev::armed();
+  if (fake == nullptr || fake->path != path) return -1;
+  // A real descriptor (of /dev/null) so that the number is unique.
+  fake->fd = __real_open("/dev/null", O_RDONLY | O_CLOEXEC);
+  fake->open_flags = flags;
+  fake->closed = false;
+  return fake->fd;
+}
+
 int __wrap_open(const char* path, int flags, ...) {
+  if (const int fd = open_fake(path, flags); fd >= 0) return fd;
   mode_t mode = 0;
   if ((flags & (O_CREAT | O_TMPFILE)) != 0) {
     va_list args;
     va_start(args, flags);
     mode = static_cast<mode_t>(va_arg(args, unsigned));
     va_end(args);
-  }
-  FakeSpidev* fake = FakeSpidev::armed();
-  if (fake != nullptr && fake->path == path) {
-    // A real descriptor (of /dev/null) so that the number is unique.
-    fake->fd = __real_open("/dev/null", O_RDONLY | O_CLOEXEC);
-    fake->open_flags = flags;
-    fake->closed = false;
-    return fake->fd;
   }
   return __real_open(path, flags, mode);
 }
 
 // With _FILE_OFFSET_BITS=64 on a 32-bit target (armhf), open() is open64().
 int __wrap_open64(const char* path, int flags, ...) {
+  if (const int fd = open_fake(path, flags); fd >= 0) return fd;
   mode_t mode = 0;
   if ((flags & (O_CREAT | O_TMPFILE)) != 0) {
     va_list args;
@@ -50,8 +55,6 @@ int __wrap_open64(const char* path, int flags, ...) {
     mode = static_cast<mode_t>(va_arg(args, unsigned));
     va_end(args);
   }
-  FakeSpidev* fake = FakeSpidev::armed();
-  if (fake != nullptr && fake->path == path) return __wrap_open(path, flags, mode);
   return __real_open64(path, flags, mode);
 }
 

@@ -98,6 +98,14 @@ FakeClock clock_of(gpiod_line_clock clock) {
   }
 }
 
+// The fake folder's next name in entry, or nullptr at its end.
+template <class Entry>
+Entry* next_entry(V2Dir* dir, Entry& entry) {
+  if (dir->next == dir->names.size()) return nullptr;
+  std::snprintf(entry.d_name, sizeof entry.d_name, "%s", dir->names[dir->next++].c_str());
+  return &entry;
+}
+
 }  // namespace
 
 extern "C" {
@@ -301,9 +309,7 @@ DIR* __wrap_opendir(const char* path) {
 dirent* __wrap_readdir(DIR* d) {
   if (!is_fake(d)) return __real_readdir(d);
   auto* dir = reinterpret_cast<V2Dir*>(d);
-  if (dir->next == dir->names.size()) return nullptr;
-  std::snprintf(dir->entry.d_name, sizeof dir->entry.d_name, "%s", dir->names[dir->next++].c_str());
-  return &dir->entry;
+  return next_entry(dir, dir->entry);
 }
 
 // With _FILE_OFFSET_BITS=64 (the project sets it for 32-bit targets, and it
@@ -312,9 +318,7 @@ dirent* __wrap_readdir(DIR* d) {
 dirent64* __wrap_readdir64(DIR* d) {
   if (!is_fake(d)) return __real_readdir64(d);
   auto* dir = reinterpret_cast<V2Dir*>(d);
-  if (dir->next == dir->names.size()) return nullptr;
-  std::snprintf(dir->entry64.d_name, sizeof dir->entry64.d_name, "%s", dir->names[dir->next++].c_str());
-  return &dir->entry64;
+  return next_entry(dir, dir->entry64);
 }
 
 int __wrap_closedir(DIR* d) {
