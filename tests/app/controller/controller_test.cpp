@@ -450,3 +450,16 @@ TEST_CASE("a TEC programme is not asked while a fail-safe holds the TEC off") {
   CHECK((cmd.flags & kFlagTempStale) != 0);
   CHECK(program.calls <= calls + 3);  // only until the reading went stale
 }
+
+TEST_CASE("a TEC programme gets 0 A in a period with only an invalid reading, where the PID would hold") {
+  PeriodHarness h;
+  FixedProgram program(0.3, 1e9);
+  h.controller.run_program(&program);
+  for (int i = 0; i < 5; ++i) REQUIRE(h.good_period(40.0).enable);
+  const int calls = program.calls;
+  const TecCommand glitch = h.period(bad(h.now_s + 1.25, TempFault::crc));
+  CHECK_FALSE(glitch.enable);
+  CHECK(glitch.current_a == 0.0);
+  CHECK((glitch.flags & kFlagTempInvalid) != 0);
+  CHECK(program.calls == calls);  // not asked while the reading is faulty
+}
