@@ -11,6 +11,10 @@
 //                                        errors per term (1 when the reported
 //                                        standard errors are right)
 //   allan_study --hours 1 --types white_rrw,combined --out table.md
+//   allan_study --bound                  the smallest median error any unbiased
+//                                        estimator can reach on each record
+//                                        (Cramer-Rao, from the record's own
+//                                        second differences; no seeds run)
 //
 // The term penalty was chosen on seeds 1001..1050; the table in
 // docs/ALLAN.md is made on seeds 1..50.
@@ -28,6 +32,9 @@
 
 #include "gyrotc/algorithms/model/rate_noise.hpp"
 #include "gyrotc/algorithms/stats/allan.hpp"
+#include "gyrotc/algorithms/stats/allan_covariance.hpp"
+
+#include <Eigen/Dense>
 
 namespace {
 
@@ -41,7 +48,7 @@ constexpr double kArw = 0.6 / 60.0;             // deg/sqrt(s)
 constexpr double kRrw = 43.2 / 3600.0 / 60.0;   // deg/s/sqrt(s)
 constexpr double kBias = 10.0 / 3600.0;         // deg/s (10 deg/h)
 constexpr double kQuant = 2e-3;                 // deg (7.2 arcsec)
-constexpr double kRamp = 1e-5;                  // deg/s^2 (36 deg/h per hour)
+constexpr double kRamp = 1e-5;                  // deg/s^2 (129.6 deg/h per hour)
 
 struct RecordType {
   std::string name;
@@ -97,6 +104,8 @@ struct Args {
   double rate_hz = 100.0;
   stats::AllanOptions options;
   bool calibrate = false;
+  bool bound = false;
+  std::size_t bound_points = 2000;
   std::vector<std::string> types;
   std::string out;
 };
@@ -105,7 +114,8 @@ struct Args {
   std::fprintf(stderr, "allan_study: %s\n", why);
   std::fprintf(stderr,
                "usage: allan_study [--seeds A:B] [--hours H] [--rate-hz F] [--penalty P] [--discrepancy D] [--min-edf E]\n"
-               "                   [--types a,b,...] [--calibrate] [--out FILE.md]\n");
+               "                   [--hadamard-decades H] [--discrepancy-correlation C]\n"
+               "                   [--types a,b,...] [--calibrate] [--bound [--bound-points P]] [--out FILE.md]\n");
   std::exit(2);
 }
 
@@ -139,12 +149,21 @@ Args parse(int argc, char** argv) {
       a.options.model_discrepancy = number(value("--discrepancy"), "--discrepancy");
     } else if (arg == "--min-edf") {
       a.options.min_edf = number(value("--min-edf"), "--min-edf");
+    } else if (arg == "--hadamard-decades") {
+      a.options.hadamard_decades = number(value("--hadamard-decades"), "--hadamard-decades");
+    } else if (arg == "--discrepancy-correlation") {
+      a.options.discrepancy_correlation = number(value("--discrepancy-correlation"), "--discrepancy-correlation");
     } else if (arg == "--penalty") {
       a.options.term_penalty = number(value("--penalty"), "--penalty");
     } else if (arg == "--types") {
       std::stringstream list(value("--types"));
       std::string t;
       while (std::getline(list, t, ',')) a.types.push_back(t);
+    } else if (arg == "--bound") {
+      a.bound = true;
+    } else if (arg == "--bound-points") {
+      a.bound_points = static_cast<std::size_t>(number(value("--bound-points"), "--bound-points"));
+      if (a.bound_points < 10) usage("--bound-points: at least 10");
     } else if (arg == "--calibrate") {
       a.calibrate = true;
     } else if (arg == "--out") {
@@ -154,7 +173,92 @@ Args parse(int argc, char** argv) {
     }
   }
   if (!(a.hours > 0.0) || !(a.rate_hz > 0.0)) usage("--hours and --rate-hz must be positive");
+  if (!(a.options.hadamard_decades >= 0.0)) usage("--hadamard-decades must be >= 0");
+  if (!(a.options.discrepancy_correlation >= 0.0 && a.options.discrepancy_correlation <= 1.0)) {
+    usage("--discrepancy-correlation must lie in [0, 1]");
+  }
   return a;
+}
+
+// The median of |X - 1| for X log-normal with sigma s: the x with
+// P(ln(1 - x) < s Z < ln(1 + x)) = 1/2.
+double lognormal_median_error(double s) {
+  auto phi = [](double z) { return 0.5 * std::erfc(-z / std::sqrt(2.0)); };
+  double lo = 0.0;
+  double hi = 1.0;
+  for (int i = 0; i < 60; ++i) {
+    const double x = 0.5 * (lo + hi);
+    const double p = phi(std::log1p(x) / s) - (x < 1.0 ? phi(std::log1p(-x) / s) : 0.0);
+    (p < 0.5 ? lo : hi) = x;
+  }
+  return 0.5 * (lo + hi);
+}
+
+// Cramer-Rao bound for the long-tau terms (B, K, R) of one record type: the
+// Fisher information of its non-overlapped Allan second differences at a
+// stride m of about samples / points (Gaussian, covariance sum_j c_j S_j with
+// S_j Toeplitz from difference_covariance; the ramp a common mean
+// R tau / sqrt 2), for the ln of each term's value, B, K and R estimated
+// together. Q and N are taken as known (the short clusters pin them; at the
+// stride they would only be confused with each other): knowing more can
+// only lower the bound, so it stays a bound.
+std::string information_bound(const RecordType& type, std::size_t samples, double rate_hz, std::size_t points) {
+  const double tau0 = 1.0 / rate_hz;
+  const std::size_t m = std::max<std::size_t>(1, samples / (points + 1));
+  const auto n = static_cast<Eigen::Index>(samples / m - 1);
+  const stats::VarianceEstimate e{m, 2};
+  std::vector<Eigen::MatrixXd> parts;  // of the estimated terms
+  std::vector<NoiseTerm> random;
+  Eigen::MatrixXd sigma = Eigen::MatrixXd::Zero(n, n);
+  std::vector<std::array<double, 4>> lags(static_cast<std::size_t>(n));
+  for (Eigen::Index h = 0; h < n; ++h) {
+    lags[static_cast<std::size_t>(h)] = stats::difference_covariance(e, e, static_cast<double>(h * static_cast<Eigen::Index>(m)), tau0);
+  }
+  for (NoiseTerm t : {NoiseTerm::quantisation, NoiseTerm::angle_random_walk, NoiseTerm::bias_instability,
+                      NoiseTerm::rate_random_walk}) {
+    if (!(truth(type.noise, t) > 0.0)) continue;
+    const double c = stats::avar_coefficient(t, truth(type.noise, t));
+    const auto j = static_cast<std::size_t>(t);
+    Eigen::MatrixXd s(n, n);
+    for (Eigen::Index k = 0; k < n; ++k) {
+      for (Eigen::Index l = 0; l < n; ++l) s(k, l) = c * lags[static_cast<std::size_t>(std::abs(k - l))][j];
+    }
+    sigma += s;
+    if (stats::noise_term_power(t) >= 0) {
+      random.push_back(t);
+      parts.push_back(std::move(s));
+    }
+  }
+  const Eigen::LLT<Eigen::MatrixXd> llt(sigma);
+  std::vector<Eigen::MatrixXd> solved;
+  for (const Eigen::MatrixXd& s : parts) solved.push_back(llt.solve(s));
+  const bool ramp = type.noise.ramp != 0.0;
+  const auto p = static_cast<Eigen::Index>(random.size() + (ramp ? 1 : 0));
+  if (p == 0) return {};
+  Eigen::MatrixXd fisher = Eigen::MatrixXd::Zero(p, p);
+  for (std::size_t a = 0; a < solved.size(); ++a) {
+    for (std::size_t b = 0; b < solved.size(); ++b) {
+      // tr(A B) without the product: sum of A .* B^T.
+      fisher(static_cast<Eigen::Index>(a), static_cast<Eigen::Index>(b)) = 0.5 * solved[a].cwiseProduct(solved[b].transpose()).sum();
+    }
+  }
+  if (ramp) {
+    const double tau = static_cast<double>(m) * tau0;
+    const Eigen::VectorXd mu = Eigen::VectorXd::Constant(n, std::fabs(type.noise.ramp) * tau / std::sqrt(2.0));
+    fisher(p - 1, p - 1) = 0.25 * mu.dot(llt.solve(mu));  // per ln c_R = 2 ln R
+  }
+  const Eigen::MatrixXd inverse = fisher.inverse();
+  std::string rows;
+  char line[256];
+  for (Eigen::Index a = 0; a < p; ++a) {
+    const NoiseTerm t = a < static_cast<Eigen::Index>(random.size()) ? random[static_cast<std::size_t>(a)] : NoiseTerm::rate_ramp;
+    const double sd_ln_value = 0.5 * std::sqrt(inverse(a, a));
+    std::snprintf(line, sizeof line, "| %s | %s | %.4g | %.3f | %.1f %% |\n", type.name.c_str(),
+                  std::string(stats::noise_term_name(t)).c_str(), truth(type.noise, t), sd_ln_value,
+                  100.0 * lognormal_median_error(sd_ln_value));
+    rows += line;
+  }
+  return rows;
 }
 
 }  // namespace
@@ -173,16 +277,36 @@ int main(int argc, char** argv) {
     if (!probe) usage(("--out " + args.out + ": cannot write").c_str());
   }
   const auto samples = static_cast<std::size_t>(std::llround(args.hours * 3600.0 * args.rate_hz));
+  if (args.bound) {
+    char head[160];
+    std::snprintf(head, sizeof head, "Cramer-Rao bound for B, K and R (Q and N known), %g h at %g Hz, from about %zu non-overlapped second differences",
+                  args.hours, args.rate_hz, args.bound_points);
+    std::string table = std::string(head) + ": the least standard deviation of ln(estimate) of any "
+                        "unbiased estimator that always reports every term of the truth, and the median error it "
+                        "implies.\n\n| record | term | truth | sd ln | smallest median error |\n|---|---|---|---|---|\n";
+    for (const RecordType& type : types) {
+      std::fprintf(stderr, "%s...\n", type.name.c_str());
+      table += information_bound(type, samples, args.rate_hz, args.bound_points);
+    }
+    std::fputs(table.c_str(), stdout);
+    if (!args.out.empty()) {
+      std::ofstream out(args.out);
+      out << table;
+      if (!out) return 1;
+    }
+    return 0;
+  }
   const std::uint64_t seeds = args.last_seed - args.first_seed + 1;
   const auto start = std::chrono::steady_clock::now();
   std::string table;
   char line[512];
   std::snprintf(line, sizeof line,
                 "Seeds %llu..%llu, %g h at %g Hz (%zu samples), %.0f %% intervals, term penalty %g, model "
-                "discrepancy %g, points with EDF >= %g.\n\n",
+                "discrepancy %g (Allan-Hadamard correlation %g), points with EDF >= %g, Hadamard points over %g decades.\n\n",
                 static_cast<unsigned long long>(args.first_seed), static_cast<unsigned long long>(args.last_seed),
                 args.hours, args.rate_hz, samples, 100.0 * args.options.confidence, args.options.term_penalty,
-                args.options.model_discrepancy, args.options.min_edf);
+                args.options.model_discrepancy, args.options.discrepancy_correlation, args.options.min_edf,
+                args.options.hadamard_decades);
   table += line;
   table += "| record | term | truth | median error | interval (or bound) covers truth | resolved |\n";
   table += "|---|---|---|---|---|---|\n";

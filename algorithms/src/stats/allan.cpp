@@ -31,6 +31,9 @@ AllanResult allan_deviation(std::span<const double> rate, double rate_hz, const 
   if (!(options.confidence > 0.0 && options.confidence < 1.0)) {
     throw std::invalid_argument("allan: confidence must lie in (0, 1)");
   }
+  if (!(options.hadamard_decades >= 0.0) || !(options.discrepancy_correlation >= 0.0 && options.discrepancy_correlation <= 1.0)) {
+    throw std::invalid_argument("allan: hadamard_decades must be >= 0 and discrepancy_correlation in [0, 1]");
+  }
   double mean = 0.0;
   for (std::size_t i = 0; i < n; ++i) {
     if (!std::isfinite(rate[i])) throw std::invalid_argument("allan: sample " + std::to_string(i) + " is not finite");
@@ -63,6 +66,15 @@ AllanResult allan_deviation(std::span<const double> rate, double rate_hz, const 
     p.tau_s = md * tau0;
     p.adev = std::sqrt(avar);
     p.clusters = static_cast<double>(n) / md;
+    if (3 * m <= n) {
+      const std::size_t h_terms = count - 3 * m;
+      double h_sum = 0.0;
+      for (std::size_t k = 0; k < h_terms; ++k) {
+        const double d = theta[k + 3 * m] - 3.0 * theta[k + 2 * m] + 3.0 * theta[k + m] - theta[k];
+        h_sum += d * d;
+      }
+      p.hdev = std::sqrt(h_sum / (6.0 * md * md * static_cast<double>(h_terms)));
+    }
     result.points.push_back(p);
   }
 

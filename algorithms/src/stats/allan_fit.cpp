@@ -290,44 +290,72 @@ double mixture_edf(const NoiseFit& fit, double tau_s, std::size_t m, std::size_t
 NoiseFit fit_noise_terms(std::span<const AllanPoint> points, std::size_t samples, double rate_hz,
                          const AllanOptions& options) {
   Problem pr;
+  const double tau0 = 1.0 / rate_hz;
   const std::vector<std::size_t> fit_sizes = allan_cluster_sizes(samples, options.fit_points_per_decade);
-  std::vector<std::size_t> sizes;
-  std::vector<double> logs;
+  // The Hadamard points: from hadamard_decades below the longest (n / 3).
+  const double hadamard_from_m = static_cast<double>(samples / 3) * std::pow(10.0, -options.hadamard_decades);
+  std::vector<VarianceEstimate> estimates;
+  std::vector<double> values;
+  std::vector<double> taus;
   std::vector<double> log_taus;
   for (const AllanPoint& ap : points) {
-    if (!(ap.adev > 0.0) || !std::isfinite(ap.adev) || ap.m < 1 || 2 * ap.m > samples) continue;
+    if (ap.m < 1 || 2 * ap.m > samples || !std::binary_search(fit_sizes.begin(), fit_sizes.end(), ap.m)) continue;
     // The longest cluster times hold one or two clusters: their estimate is
     // chi-square with fewer than 2 EDF, whose logarithm has a tail to minus
     // infinity (a pure random walk gives 0.1 % of its Allan variance there
     // in one record of forty) that no normal approximation carries.
-    if (overlapping_avar_edf(PowerLawNoise::random_walk_rate, ap.m, samples) < options.min_edf) continue;
-    if (!std::binary_search(fit_sizes.begin(), fit_sizes.end(), ap.m)) continue;
+    if (ap.adev > 0.0 && std::isfinite(ap.adev) &&
+        overlapping_avar_edf(PowerLawNoise::random_walk_rate, ap.m, samples) >= options.min_edf) {
+      estimates.push_back({ap.m, 2});
+      values.push_back(ap.adev * ap.adev);
+      taus.push_back(ap.tau_s);
+      log_taus.push_back(std::log10(ap.tau_s));
+    }
+    if (options.hadamard_decades > 0.0 && ap.hdev > 0.0 && std::isfinite(ap.hdev) && 3 * ap.m <= samples &&
+        static_cast<double>(ap.m) >= hadamard_from_m) {
+      // The same EDF cut, from the estimate's own variance under a random walk.
+      const VarianceEstimate h{ap.m, 3};
+      const AvarCovariance single(std::span<const VarianceEstimate>(&h, 1), samples, tau0);
+      const double mean = single.expected(0, 3);
+      const double edf = 2.0 * mean * mean / single.covariance({0.0, 0.0, 0.0, 1.0})(0, 0);
+      if (edf >= options.min_edf) {
+        estimates.push_back(h);
+        values.push_back(ap.hdev * ap.hdev);
+        taus.push_back(ap.tau_s);
+        log_taus.push_back(std::log10(ap.tau_s));
+      }
+    }
+  }
+  NoiseFit out;
+  if (estimates.size() < 3) return out;
+  pr.covariance.emplace(estimates, samples, tau0);
+  std::vector<double> logs;
+  for (std::size_t i = 0; i < estimates.size(); ++i) {
     Point p;
-    p.avar = ap.adev * ap.adev;
+    p.avar = values[i];
     for (NoiseTerm t : kAllNoiseTerms) {
       const auto j = static_cast<std::size_t>(t);
       const auto type = noise_type(t);
-      p.basis[j] = std::pow(ap.tau_s, noise_term_power(t));
-      p.edf[j] = type ? overlapping_avar_edf(*type, ap.m, samples) : kMaxEdf;
+      // The ramp: R^2 tau^2 / 2 in the Allan variance, nothing in the Hadamard.
+      p.basis[j] = type ? pr.covariance->expected(i, static_cast<int>(*type))
+                        : (estimates[i].differences == 2 ? taus[i] * taus[i] : 0.0);
     }
     pr.points.push_back(p);
-    sizes.push_back(ap.m);
     logs.push_back(std::log(p.avar));
-    log_taus.push_back(std::log10(ap.tau_s));
   }
-  NoiseFit out;
-  if (pr.points.size() < 3) return out;
   pr.log_avar = Eigen::Map<const Eigen::VectorXd>(logs.data(), static_cast<Eigen::Index>(logs.size()));
   const auto count = static_cast<Eigen::Index>(log_taus.size());
   pr.discrepancy.resize(count, count);
   const double d2 = options.model_discrepancy * options.model_discrepancy;
   for (Eigen::Index i = 0; i < count; ++i) {
     for (Eigen::Index j = 0; j < count; ++j) {
-      const double distance = std::fabs(log_taus[static_cast<std::size_t>(i)] - log_taus[static_cast<std::size_t>(j)]);
-      pr.discrepancy(i, j) = d2 * std::exp(-distance / kDiscrepancyDecades);
+      const auto ui = static_cast<std::size_t>(i);
+      const auto uj = static_cast<std::size_t>(j);
+      const double distance = std::fabs(log_taus[ui] - log_taus[uj]);
+      const double kinds = estimates[ui].differences == estimates[uj].differences ? 1.0 : options.discrepancy_correlation;
+      pr.discrepancy(i, j) = d2 * kinds * std::exp(-distance / kDiscrepancyDecades);
     }
   }
-  pr.covariance.emplace(sizes, samples, 1.0 / rate_hz);
   std::vector<SubsetFit> fits;
   std::vector<double> criteria;
   for (unsigned mask = 1; mask < (1u << kNoiseTerms); ++mask) {
@@ -400,8 +428,11 @@ NoiseFit fit_noise_terms(std::span<const AllanPoint> points, std::size_t samples
   }
   // A rate random walk leaves a trend of its own in a record of length T: its
   // least-squares slope has standard deviation K sqrt(6 / (5 T)), which the
-  // Allan variance cannot tell from a ramp. The ramp's interval (or bound)
-  // takes that in, with K at the top of its interval (or its bound).
+  // Allan variance cannot tell from a ramp, and the Hadamard points only as
+  // far as their few long clusters allow (the ramp's Fisher interval alone
+  // was too narrow: standardised errors with mean square 5.8, docs/ALLAN.md).
+  // The ramp's interval (or bound) takes the trend in, with K at the top of
+  // its interval (or its bound).
   TermEstimate& ramp = out.terms[static_cast<std::size_t>(NoiseTerm::rate_ramp)];
   const TermEstimate& walk = out.terms[static_cast<std::size_t>(NoiseTerm::rate_random_walk)];
   const double k_high = walk.included ? walk.ci_high : walk.upper_bound;

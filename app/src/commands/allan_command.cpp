@@ -79,9 +79,11 @@ plot::Figure allan_figure(const stats::AllanResult& r, const std::string& title,
   plot::Panel p;
   p.y.title = "Allan deviation (" + column + ")";
   p.y.scale = plot::Scale::log;
-  plot::Series adev, lo, hi;
+  plot::Series adev, hdev, lo, hi;
   adev.label = "overlapping Allan deviation";
   adev.color = "#1f77b4";
+  hdev.label = "overlapping Hadamard deviation (blind to a rate ramp; used by the fit at long tau)";
+  hdev.color = "#17becf";
   char label[160];
   std::snprintf(label, sizeof label, "%.0f %% interval (chi-square, EDF of the fitted noise)", 100.0 * confidence);
   lo.label = label;
@@ -94,10 +96,15 @@ plot::Figure allan_figure(const stats::AllanResult& r, const std::string& title,
     lo.y.push_back(pt.ci_low);
     hi.x.push_back(pt.tau_s);
     hi.y.push_back(pt.ci_high);
+    if (pt.hdev > 0.0) {
+      hdev.x.push_back(pt.tau_s);
+      hdev.y.push_back(pt.hdev);
+    }
   }
   const double t0 = r.points.front().tau_s;
   const double t1 = r.points.back().tau_s;
   p.series = {adev, lo, hi};
+  if (!hdev.x.empty()) p.series.push_back(hdev);
   const char* colors[] = {"#9467bd", "#d62728", "#ff7f0e", "#2ca02c", "#8c564b"};
   for (stats::NoiseTerm t : stats::kAllNoiseTerms) {
     const stats::TermEstimate& e = r.fit.term(t);
@@ -157,9 +164,11 @@ void run(const AllanOptions& o) {
     j["rate_hz"] = r.rate_hz;
     j["confidence"] = o.confidence;
     std::vector<double> tau, adev, lo, hi, edf;
+    nlohmann::json hdev = nlohmann::json::array();
     for (const auto& p : r.points) {
       tau.push_back(p.tau_s);
       adev.push_back(p.adev);
+      hdev.push_back(p.hdev > 0.0 ? nlohmann::json(p.hdev) : nlohmann::json(nullptr));
       lo.push_back(p.ci_low);
       hi.push_back(p.ci_high);
       edf.push_back(p.edf);
@@ -169,6 +178,7 @@ void run(const AllanOptions& o) {
     j["adev_ci_low_dps"] = lo;
     j["adev_ci_high_dps"] = hi;
     j["adev_edf"] = edf;
+    j["hdev_dps"] = hdev;
     for (stats::NoiseTerm t : stats::kAllNoiseTerms) {
       const stats::TermEstimate& e = r.fit.term(t);
       const Quoted q = quoted(t);
@@ -184,10 +194,12 @@ void run(const AllanOptions& o) {
   }
   std::printf("gyrotc allan: %s, column %s: %zu samples at %g Hz (%.0f s)\n", o.data.c_str(), o.column.c_str(),
               r.samples, r.rate_hz, static_cast<double>(r.samples) / r.rate_hz);
-  std::printf("  %12s %14s %10s %14s %14s   (%.0f %% interval)\n", "tau_s", "adev_dps", "edf", "ci_low_dps",
-              "ci_high_dps", 100.0 * o.confidence);
+  std::printf("  %12s %14s %10s %14s %14s %14s   (%.0f %% interval)\n", "tau_s", "adev_dps", "edf", "ci_low_dps",
+              "ci_high_dps", "hdev_dps", 100.0 * o.confidence);
   for (const auto& p : r.points) {
-    std::printf("  %12.4g %14.5g %10.4g %14.5g %14.5g\n", p.tau_s, p.adev, p.edf, p.ci_low, p.ci_high);
+    char hdev[32] = "-";
+    if (p.hdev > 0.0) std::snprintf(hdev, sizeof hdev, "%.5g", p.hdev);
+    std::printf("  %12.4g %14.5g %10.4g %14.5g %14.5g %14s\n", p.tau_s, p.adev, p.edf, p.ci_low, p.ci_high, hdev);
   }
   if (!r.fit.valid) {
     std::printf("  noise terms: too few points to fit\n");

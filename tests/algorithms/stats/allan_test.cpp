@@ -13,17 +13,22 @@ using namespace gyrotc::stats;
 
 namespace {
 
-// Reference: overlapping Allan variance straight from its definition, O(n*m):
-// the mean of every run of m samples, then half the mean squared difference
-// of runs m apart.
-double direct_avar(const std::vector<double>& y, std::size_t m) {
-  const std::size_t n = y.size();
-  std::vector<double> avg(n - m + 1);
-  for (std::size_t k = 0; k + m <= n; ++k) {
+// The averages over every run of m consecutive samples.
+std::vector<double> cluster_averages(const std::vector<double>& y, std::size_t m) {
+  std::vector<double> avg(y.size() - m + 1);
+  for (std::size_t k = 0; k + m <= y.size(); ++k) {
     double s = 0.0;
     for (std::size_t j = 0; j < m; ++j) s += y[k + j];
     avg[k] = s / static_cast<double>(m);
   }
+  return avg;
+}
+
+// Reference: overlapping Allan variance straight from its definition, O(n*m):
+// the mean of every run of m samples, then half the mean squared difference
+// of runs m apart.
+double direct_avar(const std::vector<double>& y, std::size_t m) {
+  const std::vector<double> avg = cluster_averages(y, m);
   double sum = 0.0;
   std::size_t terms = 0;
   for (std::size_t k = 0; k + m < avg.size(); ++k) {
@@ -32,6 +37,20 @@ double direct_avar(const std::vector<double>& y, std::size_t m) {
     ++terms;
   }
   return sum / (2.0 * static_cast<double>(terms));
+}
+
+// The Hadamard variance from its definition on cluster averages: the second
+// difference of three consecutive averages, squared, over 6.
+double direct_hvar(const std::vector<double>& y, std::size_t m) {
+  const std::vector<double> avg = cluster_averages(y, m);
+  double sum = 0.0;
+  std::size_t terms = 0;
+  for (std::size_t k = 0; k + 2 * m < avg.size(); ++k) {
+    const double d = avg[k + 2 * m] - 2.0 * avg[k + m] + avg[k];
+    sum += d * d;
+    ++terms;
+  }
+  return sum / (6.0 * static_cast<double>(terms));
 }
 
 // White rate noise of density n_true (units*sqrt(s)) plus a rate random walk
@@ -70,6 +89,27 @@ TEST_CASE("overlapping Allan deviation from cumulative sums matches the O(n*m) d
     INFO("m = " << p.m);
     CHECK(std::fabs(p.adev - ref) <= 1e-12 * ref);
     CHECK(p.tau_s == Approx(static_cast<double>(p.m) / 50.0));
+  }
+}
+
+TEST_CASE("overlapping Hadamard deviation from cumulative sums matches its definition to 1e-12, where 3 m <= n") {
+  std::mt19937_64 rng(11);
+  std::normal_distribution<double> g(0.0, 1.0);
+  std::vector<double> y(501);
+  double walk = 0.0;
+  for (std::size_t i = 0; i < y.size(); ++i) {
+    walk += 0.05 * g(rng);
+    y[i] = 3.0 + 0.01 * static_cast<double>(i) + walk + g(rng);
+  }
+  const AllanResult r = allan_deviation(y, 50.0);
+  for (const auto& p : r.points) {
+    INFO("m = " << p.m);
+    if (3 * p.m > y.size()) {
+      CHECK(p.hdev == 0.0);
+      continue;
+    }
+    const double ref = std::sqrt(direct_hvar(y, p.m));
+    CHECK(std::fabs(p.hdev - ref) <= 1e-12 * ref);
   }
 }
 
@@ -124,6 +164,16 @@ TEST_CASE("bad records are rejected") {
   const std::vector<double> two{1.0, 2.0};
   CHECK_THROWS_AS(allan_deviation(two, 0.0), std::invalid_argument);
   CHECK(allan_deviation(two, 1.0).points.size() == 1);
+}
+
+TEST_CASE("fit options outside their range are rejected") {
+  const std::vector<double> y(100, 1.0);
+  AllanOptions o;
+  o.discrepancy_correlation = 1.5;  // the discrepancy's covariance would not be positive
+  CHECK_THROWS_AS(allan_deviation(y, 10.0, o), std::invalid_argument);
+  o = {};
+  o.hadamard_decades = -1.0;
+  CHECK_THROWS_AS(allan_deviation(y, 10.0, o), std::invalid_argument);
 }
 
 TEST_CASE("a 10^7-sample record is handled") {

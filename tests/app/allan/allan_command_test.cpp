@@ -43,6 +43,18 @@ fs::path white_noise_record(std::size_t samples, double rate_hz, double sigma_dp
   return write_temp("white.csv", text);
 }
 
+// The SVG `allan --plot` draws for a white-noise record of `samples` samples.
+std::string plot_of_white_noise(std::size_t samples) {
+  const fs::path data = white_noise_record(samples, 100.0, 0.1);
+  const fs::path svg = fs::temp_directory_path() / ("gyrotc_allan_" + std::to_string(::getpid()) + ".svg");
+  run_allan({"--data", data.string(), "--plot", svg.string()});
+  std::ifstream in(svg);
+  const std::string text{std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+  fs::remove(data);
+  fs::remove(svg);
+  return text;
+}
+
 // The message of the InputError the command throws for args.
 std::string error_of(const std::vector<std::string>& args) {
   try {
@@ -61,7 +73,7 @@ TEST_CASE("allan --json gives every field of the issue, with one interval per ta
   const auto j = nlohmann::json::parse(run_allan({"--data", data.string(), "--json"}));
   fs::remove(data);
   CHECK(j["samples"] == 20000);
-  for (const char* key : {"tau_s", "adev_dps", "adev_ci_low_dps", "adev_ci_high_dps", "adev_edf"}) {
+  for (const char* key : {"tau_s", "adev_dps", "adev_ci_low_dps", "adev_ci_high_dps", "adev_edf", "hdev_dps"}) {
     INFO(key);
     REQUIRE(j[key].is_array());
     CHECK(j[key].size() == j["tau_s"].size());
@@ -70,6 +82,9 @@ TEST_CASE("allan --json gives every field of the issue, with one interval per ta
   for (std::size_t i = 0; i < j["tau_s"].size(); ++i) {
     CHECK(j["adev_ci_low_dps"][i].get<double>() < j["adev_dps"][i].get<double>());
     CHECK(j["adev_dps"][i].get<double>() < j["adev_ci_high_dps"][i].get<double>());
+    // The Hadamard deviation where three clusters fit in the record, null beyond.
+    const bool three_clusters = 3.0 * j["tau_s"][i].get<double>() * 100.0 <= 20000.0;
+    CHECK(j["hdev_dps"][i].is_number() == three_clusters);
   }
   // White noise: the angle random walk with its interval; the other terms
   // are not resolved (null), each with its key.
@@ -92,15 +107,16 @@ TEST_CASE("allan takes the sample rate from time_s and recovers the angle random
 }
 
 TEST_CASE("allan --plot writes a log-log SVG with the slope lines") {
-  const fs::path data = white_noise_record(20000, 100.0, 0.1);
-  const fs::path svg = fs::temp_directory_path() / ("gyrotc_allan_" + std::to_string(::getpid()) + ".svg");
-  run_allan({"--data", data.string(), "--plot", svg.string()});
-  std::ifstream in(svg);
-  const std::string text{std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
-  fs::remove(data);
-  fs::remove(svg);
+  const std::string text = plot_of_white_noise(20000);
   CHECK(text.find("<svg") != std::string::npos);
   CHECK(text.find("slope -1/2") != std::string::npos);
+  CHECK(text.find("Hadamard deviation") != std::string::npos);
+}
+
+TEST_CASE("allan --plot of a record too short for a Hadamard point still draws the Allan deviation") {
+  const std::string text = plot_of_white_noise(2);
+  CHECK(text.find("<svg") != std::string::npos);
+  CHECK(text.find("Hadamard deviation") == std::string::npos);
 }
 
 TEST_CASE("allan refuses a plot format it cannot write") {
