@@ -353,6 +353,11 @@ std::vector<Scenario> family_c() {
     out.push_back(series_c("gap 1 h: thermal_lag 120 s", "thermal_lag", s, {kRefused}));
     s.lag_tau_s = 0.0;
     out.push_back(series_c("gap 1 h: null", "none", s, {kRefused}));
+    // Across a gap a drift is not tried (it cannot be told from the wander's
+    // level change there): the record must not claim one, nor anything else.
+    s.drift_mv_per_h = 0.3;
+    out.push_back(series_c("gap 1 h: linear_drift 0.3 mV/h (not tried across a gap)", "none", s, {kRefused}));
+    s.drift_mv_per_h = 0.0;
     s.gaps = {{1800.0, 600.0}, {7200.0, 900.0}, {14400.0, 1200.0}};
     s.warm_up_mv = 1.5;
     out.push_back(series_c("3 gaps: warm_up 1.5 mV", "warm_up", s, {kRefused}));
