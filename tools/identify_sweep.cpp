@@ -49,6 +49,7 @@ namespace indep = gyrotc::identify_test;
 
 constexpr const char* kUsage =
     "usage: identify_sweep [--quick] [--jobs N] [--first-test-seed S] [--skip-training]\n"
+    "                      [--only TEXT] [--seeds N] [--explain]\n"
     "       identify_sweep --write-record FILE [--effect NAME] [--hours H] [--seed S]\n"
     "\n"
     "Runs `gyrotc identify`'s statistics on synthetic records of known truth and prints, as\n"
@@ -58,6 +59,11 @@ constexpr const char* kUsage =
     "  --jobs N             records identified in parallel (default 1)\n"
     "  --first-test-seed S  first test seed (default 100001; others for development)\n"
     "  --skip-training      report the test seeds with the default Criteria\n"
+    "  --only TEXT          only the scenarios whose name contains TEXT, on the test seeds with the\n"
+    "                       default Criteria (implies --skip-training)\n"
+    "  --seeds N            N test seeds per scenario (default 13 for nulls and tables, 5 for effects)\n"
+    "  --explain            for each test record, the noise model and the candidates tried (p-value,\n"
+    "                       long-run factor, held-out gain, folds, t-ratio) and why each was kept or not\n"
     "  --write-record FILE  write one record of family A as CSV for `gyrotc identify --data`\n"
     "                       (--effect none|thermal_lag|rate_sensitivity|ramp_hysteresis|warm_up|\n"
     "                       linear_drift|tec_joule_heating, --hours 6, --seed 7)\n";
@@ -347,6 +353,11 @@ std::vector<Scenario> family_c() {
     out.push_back(series_c("gap 1 h: thermal_lag 120 s", "thermal_lag", s, {kRefused}));
     s.lag_tau_s = 0.0;
     out.push_back(series_c("gap 1 h: null", "none", s, {kRefused}));
+    // Across a gap a drift is not tried (it cannot be told from the wander's
+    // level change there): the record must not claim one, nor anything else.
+    s.drift_mv_per_h = 0.3;
+    out.push_back(series_c("gap 1 h: linear_drift 0.3 mV/h (not tried across a gap)", "none", s, {kRefused}));
+    s.drift_mv_per_h = 0.0;
     s.gaps = {{1800.0, 600.0}, {7200.0, 900.0}, {14400.0, 1200.0}};
     s.warm_up_mv = 1.5;
     out.push_back(series_c("3 gaps: warm_up 1.5 mV", "warm_up", s, {kRefused}));
@@ -378,8 +389,36 @@ struct Outcome {
   std::uint64_t seed = 0;
   std::string verdict;  // canonical, or "refused"
   std::string detail;   // refusal message
+  std::string explanation;  // --explain: noise model and candidates tried
   double seconds = 0.0;
 };
+
+// The noise model and every candidate tried, one line each (--explain).
+std::string explain(const Identification& id) {
+  std::string out = "  noise:";
+  char line[240];
+  for (const auto& p : id.baseline_params) {
+    std::snprintf(line, sizeof line, " %s %.4g", p.name.c_str(), p.value);
+    out += line;
+  }
+  out += "\n";
+  for (const auto& c : id.tried) {
+    std::snprintf(line, sizeof line,
+                  "  round %d %-20s p %.3g  long-run %.3g  dBIC %.1f  held-out gain %.4f  folds %d  t %.2f  %s\n",
+                  c.round, c.effect.c_str(), c.p_value, c.long_run_factor, c.delta_bic, c.cv_gain,
+                  c.folds_improved, c.t_ratio, c.passed ? "kept" : c.reason.c_str());
+    out += line;
+  }
+  for (const auto& a : id.added) {
+    out += "  added " + a.effect + ":";
+    for (const auto& p : a.params) {
+      std::snprintf(line, sizeof line, " %s %.4g +/- %.3g", p.name.c_str(), p.value, p.std_error);
+      out += line;
+    }
+    out += "\n";
+  }
+  return out;
+}
 
 bool correct(const Outcome& o) {
   if (o.verdict == canonical(o.scenario->expected)) return true;
@@ -395,7 +434,7 @@ bool correct(const Outcome& o) {
 }
 
 std::vector<Outcome> run_all(const std::vector<const Scenario*>& scenarios, std::uint64_t first_seed, int seeds,
-                             const Criteria& c, int jobs, const char* label) {
+                             const Criteria& c, int jobs, const char* label, bool explained = false) {
   std::vector<Outcome> out;
   for (const auto* s : scenarios) {
     for (int k = 0; k < seeds; ++k) {
@@ -413,7 +452,9 @@ std::vector<Outcome> run_all(const std::vector<const Scenario*>& scenarios, std:
       Outcome& o = out[i];
       const auto t0 = std::chrono::steady_clock::now();
       try {
-        o.verdict = canonical(o.scenario->run(o.seed, c).verdict);
+        const Identification id = o.scenario->run(o.seed, c);
+        o.verdict = canonical(id.verdict);
+        if (explained) o.explanation = explain(id);
       } catch (const std::invalid_argument& e) {
         o.verdict = kRefused;
         o.detail = e.what();
@@ -520,6 +561,15 @@ void report(const char* title, const std::vector<Outcome>& outcomes) {
     std::printf("- %s, seed %llu: %s%s%s\n", o.scenario->name.c_str(), static_cast<unsigned long long>(o.seed),
                 o.verdict.c_str(), o.detail.empty() ? "" : " - ", o.detail.c_str());
   }
+  bool explained = false;
+  for (const auto& o : outcomes) {
+    if (o.explanation.empty()) continue;
+    if (!explained) std::printf("\nExplained:\n\n```\n");
+    explained = true;
+    std::printf("%s, seed %llu: %s\n%s", o.scenario->name.c_str(), static_cast<unsigned long long>(o.seed),
+                o.verdict.c_str(), o.explanation.c_str());
+  }
+  if (explained) std::printf("```\n");
   std::fflush(stdout);
 }
 
@@ -577,6 +627,9 @@ int write_record(int argc, char** argv) {
 int main(int argc, char** argv) {
   bool quick = false;
   bool skip_training = false;
+  bool explained = false;
+  std::string only;
+  int seeds_per_scenario = 0;  // 0: the defaults below
   int jobs = 1;
   std::uint64_t first_test_seed = 100001;
   for (int i = 1; i < argc; ++i) {
@@ -584,6 +637,9 @@ int main(int argc, char** argv) {
     if (a == "--write-record") return write_record(argc, argv);
     if (a == "--quick") quick = true;
     else if (a == "--skip-training") skip_training = true;
+    else if (a == "--explain") explained = true;
+    else if (a == "--only" && i + 1 < argc) only = argv[++i];
+    else if (a == "--seeds" && i + 1 < argc) seeds_per_scenario = std::max(1, std::atoi(argv[++i]));
     else if (a == "--jobs" && i + 1 < argc) jobs = std::max(1, std::atoi(argv[++i]));
     else if (a == "--first-test-seed" && i + 1 < argc) first_test_seed = std::strtoull(argv[++i], nullptr, 10);
     else {
@@ -591,9 +647,16 @@ int main(int argc, char** argv) {
       return a == "--help" || a == "-h" ? 0 : 2;
     }
   }
-  const auto a = family_a();
-  const auto b = family_b();
-  const auto c = family_c();
+  // --only: the thresholds are chosen on whole families, so a subset is run
+  // with the default Criteria.
+  const auto keep = [&only](std::vector<Scenario> v) {
+    std::erase_if(v, [&only](const Scenario& s) { return s.name.find(only) == std::string::npos; });
+    return v;
+  };
+  const auto a = keep(family_a());
+  const auto b = keep(family_b());
+  const auto c = keep(family_c());
+  if (!only.empty()) skip_training = true;
 
   // 1. Choose the thresholds on the training seeds: the series settings on
   // family A, the table p-value on family B.
@@ -677,8 +740,8 @@ int main(int argc, char** argv) {
   }
 
   // 2. Every family on the test seeds.
-  const int null_seeds = quick ? 3 : 13;
-  const int effect_seeds = quick ? 2 : 5;
+  const int null_seeds = seeds_per_scenario > 0 ? seeds_per_scenario : quick ? 3 : 13;
+  const int effect_seeds = seeds_per_scenario > 0 ? seeds_per_scenario : quick ? 2 : 5;
   std::printf("\n## Test seeds (%llu, %llu, ...)\n", static_cast<unsigned long long>(first_test_seed),
               static_cast<unsigned long long>(first_test_seed + 7919));
   const auto split = [](const std::vector<Scenario>& v, bool nulls) {
@@ -692,9 +755,10 @@ int main(int argc, char** argv) {
                                       {"Family B: static tables, 1 % noise", &b},
                                       {"Family C: independent generator (never tuned on)", &c}}) {
     // Tables are cheap: as many seeds for their effects as for their nulls.
+    if (family->empty()) continue;
     const int seeds = family == &b ? null_seeds : effect_seeds;
-    auto outcomes = run_all(split(*family, true), first_test_seed, null_seeds, chosen, jobs, title);
-    const auto effects = run_all(split(*family, false), first_test_seed, seeds, chosen, jobs, title);
+    auto outcomes = run_all(split(*family, true), first_test_seed, null_seeds, chosen, jobs, title, explained);
+    const auto effects = run_all(split(*family, false), first_test_seed, seeds, chosen, jobs, title, explained);
     outcomes.insert(outcomes.end(), effects.begin(), effects.end());
     report(title, outcomes);
   }

@@ -360,8 +360,8 @@ Trial try_candidate(const SelectionProblem& problem, const Criteria& criteria, c
   }
   SeparableFit ols = fit_separable(problem.y, model);
   const bool at_bound = ols.theta_at_bound;
-  // A library effect is tested with the noise refitted by REML (the
-  // likelihood ratio of the two models, each with its own wander). A probe,
+  // A library effect is tested with the noise refitted by maximum likelihood
+  // (the likelihood ratio of the two models, each with its own wander). A probe,
   // a catch-all with many degrees of freedom in time, is tested under the
   // current model's noise: a record holds few slow degrees of freedom, and
   // refitting the wander after the probe soaked part of it up would credit
@@ -403,7 +403,9 @@ Trial try_candidate(const SelectionProblem& problem, const Criteria& criteria, c
   s.t_ratio = trial.readout.t_ratio;
   s.in_bounds = trial.readout.in_bounds && (probe || !at_bound);
 
-  // Both models' held-out errors under the current model's noise.
+  // Both models' held-out errors under the candidate's noise: under the
+  // current model's, the wander that holds a real effect's signal would track
+  // it in the held-out blocks too (docs/IDENTIFY.md, run 2).
   const WanderNoise* noise = is_series(problem) ? &t.noise : nullptr;
   trial.after = held_out(problem, t.model, t.fit.theta, noise, scored);
   trial.before = held_out(problem, current.model, current.fit.theta, noise, scored);

@@ -80,6 +80,18 @@ TEST_CASE("a thermal lag across a one-hour gap is named, with its time constant"
   CHECK(id.note.find("gap") != std::string::npos);
 }
 
+// Issue 22: across a gap the record cannot tell a drift from the wander's
+// level change. This null record (300 s wander, one hour missing) was
+// answered linear_drift at p = 3e-7 when the drift was tried across the gap.
+TEST_CASE("a null record with a one-hour gap is not read as a drift; the note says linear_drift was not tried") {
+  IndependentSpec s = spec(487110, 300.0);
+  s.gaps = {{3.0 * 3600.0, 3600.0}};
+  const auto id = identify_series(make_independent_record(s), SeriesTarget::gyro_mv, fast());
+  CHECK(id.verdict == "none");
+  CHECK(id.note.find("linear_drift not tried") != std::string::npos);
+  for (const auto& c : id.tried) CHECK(c.effect != "linear_drift");
+}
+
 TEST_CASE("a warm-up under jittered sampling is named warm_up") {
   IndependentSpec s = spec(205, 300.0);
   s.jitter_s = 0.7;

@@ -15,7 +15,9 @@
 // record, so that only what a curve in T cannot absorb is left; the noise is
 // white plus a slow Gauss-Markov wander of the bias (wander_noise.hpp).
 // Candidates: thermal_lag, rate_sensitivity, ramp_hysteresis,
-// ambient_sensitivity, warm_up, linear_drift (model/effects.hpp). T is the
+// ambient_sensitivity, warm_up, linear_drift (model/effects.hpp; linear_drift
+// only on records without gaps, across which it cannot be told from the
+// bias wander; the note says so). T is the
 // sensor reading smoothed over `smooth_s` (centred, no lag) and dT/dt its
 // centred difference.
 //
