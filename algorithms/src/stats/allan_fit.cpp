@@ -35,17 +35,18 @@ std::optional<PowerLawNoise> noise_type(NoiseTerm t) {
   return std::nullopt;
 }
 
-// One Allan point prepared for the fit: its estimate, the powers of tau and
-// the EDF each noise type would give it.
+// One Allan (or Hadamard) point prepared for the fit: its estimate, each
+// term's expected estimate at unit coefficient, and (for mixture_edf) the
+// EDF each noise type would give an Allan point.
 struct Point {
-  double avar = 0.0;
-  std::array<double, kNoiseTerms> basis{};  // tau^power of each term
-  std::array<double, kNoiseTerms> edf{};    // per term's noise type (kMaxEdf for the ramp)
+  double estimate = 0.0;                    // the Allan or Hadamard variance
+  std::array<double, kNoiseTerms> basis{};  // expected estimate per unit coefficient (tau^power for Allan)
+  std::array<double, kNoiseTerms> edf{};    // per term's noise type (kMaxEdf for the ramp); mixture_edf only
 };
 
 using Coefficients = std::array<double, kNoiseTerms>;
 
-double model_avar(const Point& p, const Coefficients& c) {
+double model_estimate(const Point& p, const Coefficients& c) {
   double a = 0.0;
   for (std::size_t j = 0; j < kNoiseTerms; ++j) a += c[j] * p.basis[j];
   return a;
@@ -90,7 +91,7 @@ double trigamma(double x) {
 // powers of tau, and the covariance of the estimates per noise type.
 struct Problem {
   std::vector<Point> points;
-  Eigen::VectorXd log_avar;
+  Eigen::VectorXd log_estimate;
   // The model discrepancy's covariance in the log domain (fixed).
   Eigen::MatrixXd discrepancy;
   std::optional<AvarCovariance> covariance;
@@ -114,12 +115,12 @@ Evaluation evaluate(const Problem& pr, const Coefficients& c) {
   Eigen::VectorXd sd(n);
   for (Eigen::Index i = 0; i < n; ++i) {
     const Point& p = pr.points[static_cast<std::size_t>(i)];
-    const double a = model_avar(p, c);
+    const double a = model_estimate(p, c);
     if (!(a > 0.0)) return e;
     e.model(i) = a;
     const double var = cov(i, i);
     const double nu = var > 0.0 ? std::min(kMaxEdf, 2.0 * a * a / var) : kMaxEdf;
-    e.residual(i) = pr.log_avar(i) - std::log(a) - (digamma(0.5 * nu) - std::log(0.5 * nu));
+    e.residual(i) = pr.log_estimate(i) - std::log(a) - (digamma(0.5 * nu) - std::log(0.5 * nu));
     sd(i) = std::sqrt(trigamma(0.5 * nu));
   }
   // Correlations of the estimates, carried to their logarithms, plus the
@@ -180,11 +181,11 @@ SubsetFit fit_subset(const Problem& pr, const std::vector<std::size_t>& terms) {
   Eigen::VectorXd scale(t);
   for (Eigen::Index j = 0; j < t; ++j) {
     double biggest = 0.0;
-    for (const Point& p : pr.points) biggest = std::max(biggest, p.basis[terms[static_cast<std::size_t>(j)]] / p.avar);
+    for (const Point& p : pr.points) biggest = std::max(biggest, p.basis[terms[static_cast<std::size_t>(j)]] / p.estimate);
     scale(j) = 1.0 / biggest;
     for (Eigen::Index i = 0; i < n; ++i) {
       const Point& p = pr.points[static_cast<std::size_t>(i)];
-      a(i, j) = p.basis[terms[static_cast<std::size_t>(j)]] / p.avar * scale(j);
+      a(i, j) = p.basis[terms[static_cast<std::size_t>(j)]] / p.estimate * scale(j);
     }
   }
   const Eigen::VectorXd start = a.colPivHouseholderQr().solve(Eigen::VectorXd::Ones(n));
@@ -223,7 +224,7 @@ SubsetFit fit_subset(const Problem& pr, const std::vector<std::size_t>& terms) {
   // Every term must matter somewhere: at least 0.01 % of the model at some point.
   for (std::size_t term : terms) {
     double share = 0.0;
-    for (const Point& p : pr.points) share = std::max(share, c[term] * p.basis[term] / model_avar(p, c));
+    for (const Point& p : pr.points) share = std::max(share, c[term] * p.basis[term] / model_estimate(p, c));
     if (share < 1e-4) return fit;
   }
   const Eigen::MatrixXd j = jacobian(pr, c, current.model, terms);
@@ -297,7 +298,6 @@ NoiseFit fit_noise_terms(std::span<const AllanPoint> points, std::size_t samples
   std::vector<VarianceEstimate> estimates;
   std::vector<double> values;
   std::vector<double> taus;
-  std::vector<double> log_taus;
   for (const AllanPoint& ap : points) {
     if (ap.m < 1 || 2 * ap.m > samples || !std::binary_search(fit_sizes.begin(), fit_sizes.end(), ap.m)) continue;
     // The longest cluster times hold one or two clusters: their estimate is
@@ -309,7 +309,6 @@ NoiseFit fit_noise_terms(std::span<const AllanPoint> points, std::size_t samples
       estimates.push_back({ap.m, 2});
       values.push_back(ap.adev * ap.adev);
       taus.push_back(ap.tau_s);
-      log_taus.push_back(std::log10(ap.tau_s));
     }
     if (options.hadamard_decades > 0.0 && ap.hdev > 0.0 && std::isfinite(ap.hdev) && 3 * ap.m <= samples &&
         static_cast<double>(ap.m) >= hadamard_from_m) {
@@ -322,7 +321,6 @@ NoiseFit fit_noise_terms(std::span<const AllanPoint> points, std::size_t samples
         estimates.push_back(h);
         values.push_back(ap.hdev * ap.hdev);
         taus.push_back(ap.tau_s);
-        log_taus.push_back(std::log10(ap.tau_s));
       }
     }
   }
@@ -332,7 +330,7 @@ NoiseFit fit_noise_terms(std::span<const AllanPoint> points, std::size_t samples
   std::vector<double> logs;
   for (std::size_t i = 0; i < estimates.size(); ++i) {
     Point p;
-    p.avar = values[i];
+    p.estimate = values[i];
     for (NoiseTerm t : kAllNoiseTerms) {
       const auto j = static_cast<std::size_t>(t);
       const auto type = noise_type(t);
@@ -341,17 +339,17 @@ NoiseFit fit_noise_terms(std::span<const AllanPoint> points, std::size_t samples
                         : (estimates[i].differences == 2 ? taus[i] * taus[i] : 0.0);
     }
     pr.points.push_back(p);
-    logs.push_back(std::log(p.avar));
+    logs.push_back(std::log(p.estimate));
   }
-  pr.log_avar = Eigen::Map<const Eigen::VectorXd>(logs.data(), static_cast<Eigen::Index>(logs.size()));
-  const auto count = static_cast<Eigen::Index>(log_taus.size());
+  pr.log_estimate = Eigen::Map<const Eigen::VectorXd>(logs.data(), static_cast<Eigen::Index>(logs.size()));
+  const auto count = static_cast<Eigen::Index>(taus.size());
   pr.discrepancy.resize(count, count);
   const double d2 = options.model_discrepancy * options.model_discrepancy;
   for (Eigen::Index i = 0; i < count; ++i) {
     for (Eigen::Index j = 0; j < count; ++j) {
       const auto ui = static_cast<std::size_t>(i);
       const auto uj = static_cast<std::size_t>(j);
-      const double distance = std::fabs(log_taus[ui] - log_taus[uj]);
+      const double distance = std::fabs(std::log10(taus[ui] / taus[uj]));
       const double kinds = estimates[ui].differences == estimates[uj].differences ? 1.0 : options.discrepancy_correlation;
       pr.discrepancy(i, j) = d2 * kinds * std::exp(-distance / kDiscrepancyDecades);
     }
