@@ -34,6 +34,9 @@ AllanResult allan_deviation(std::span<const double> rate, double rate_hz, const 
   if (!(options.hadamard_decades >= 0.0) || !(options.discrepancy_correlation >= 0.0 && options.discrepancy_correlation <= 1.0)) {
     throw std::invalid_argument("allan: hadamard_decades must be >= 0 and discrepancy_correlation in [0, 1]");
   }
+  if (options.walk_blocks != 0 && options.walk_blocks < 10) {
+    throw std::invalid_argument("allan: walk_blocks must be 0 (off) or at least 10");
+  }
   double mean = 0.0;
   for (std::size_t i = 0; i < n; ++i) {
     if (!std::isfinite(rate[i])) throw std::invalid_argument("allan: sample " + std::to_string(i) + " is not finite");
@@ -78,7 +81,7 @@ AllanResult allan_deviation(std::span<const double> rate, double rate_hz, const 
     result.points.push_back(p);
   }
 
-  result.fit = fit_noise_terms(result.points, n, rate_hz, options);
+  result.fit = fit_noise_terms(result.points, n, rate_hz, options, rate);
   // Each point's interval: chi-square with the EDF of the fitted mixture
   // (white rate noise alone when nothing could be fitted).
   const double tail = 0.5 * (1.0 - options.confidence);

@@ -10,6 +10,7 @@
 #include "gyrotc/algorithms/stats/allan.hpp"
 #include "gyrotc/algorithms/stats/allan_covariance.hpp"
 #include "gyrotc/algorithms/stats/allan_edf.hpp"
+#include "gyrotc/algorithms/stats/allan_walk.hpp"
 #include "gyrotc/algorithms/stats/chi_square.hpp"
 
 namespace gyrotc::stats {
@@ -237,6 +238,47 @@ SubsetFit fit_subset(const Problem& pr, const std::vector<std::size_t>& terms) {
   return fit;
 }
 
+// The random walk's value by REML on the record's block means, under the
+// chosen model: its quantisation and white rate held, its bias instability
+// (if it has one) estimated beside the walk. Only where the walk is under
+// half of the fitted Allan variance at the block length: the block means
+// see only tau >= T / blocks, which then holds the walk's information; a
+// walk that rules down to shorter clusters (alone, say) is known far better
+// from them (a random walk alone: 0.1 % median error from the fit, 1.9 %
+// from the block means). The interval spans the fit's and the REML one (z
+// its normal quantile); a walk not resolved keeps that status, with the
+// REML value as its value if present.
+void refine_random_walk(std::span<const double> rate, double rate_hz, std::size_t blocks, double z, NoiseFit& fit) {
+  TermEstimate& walk = fit.terms[static_cast<std::size_t>(NoiseTerm::rate_random_walk)];
+  const double start = walk.included ? walk.value : walk.value_if_present;
+  if (!(start > 0.0) || rate.size() < blocks) return;
+  std::array<double, 4> c{};
+  for (NoiseTerm t : {NoiseTerm::quantisation, NoiseTerm::angle_random_walk, NoiseTerm::bias_instability}) {
+    const TermEstimate& e = fit.term(t);
+    if (e.included) c[static_cast<std::size_t>(*noise_type(t))] = avar_coefficient(t, e.value);
+  }
+  c[3] = avar_coefficient(NoiseTerm::rate_random_walk, start);
+  const double block_s = static_cast<double>(rate.size() / blocks) / rate_hz;
+  double others = 0.0;
+  for (NoiseTerm t : {NoiseTerm::quantisation, NoiseTerm::angle_random_walk, NoiseTerm::bias_instability}) {
+    others += c[static_cast<std::size_t>(*noise_type(t))] * std::pow(block_s, noise_term_power(t));
+  }
+  if (c[3] * block_s >= others) return;
+  const WalkEstimate w = reml_random_walk(rate, rate_hz, c, blocks);
+  if (!w.ok) return;
+  const double value = term_value(NoiseTerm::rate_random_walk, w.walk_coefficient);
+  const double high = term_value(NoiseTerm::rate_random_walk, w.walk_coefficient * std::exp(z * w.relative_se));
+  if (walk.included) {
+    walk.value = value;
+    walk.relative_se = w.relative_se;
+    walk.ci_low = std::min(walk.ci_low, term_value(NoiseTerm::rate_random_walk, w.walk_coefficient * std::exp(-z * w.relative_se)));
+    walk.ci_high = std::max(walk.ci_high, high);
+  } else {
+    walk.value_if_present = value;
+    walk.upper_bound = std::max(walk.upper_bound, high);
+  }
+}
+
 }  // namespace
 
 std::string_view noise_term_name(NoiseTerm term) {
@@ -289,7 +331,7 @@ double mixture_edf(const NoiseFit& fit, double tau_s, std::size_t m, std::size_t
 }
 
 NoiseFit fit_noise_terms(std::span<const AllanPoint> points, std::size_t samples, double rate_hz,
-                         const AllanOptions& options) {
+                         const AllanOptions& options, std::span<const double> rate) {
   Problem pr;
   const double tau0 = 1.0 / rate_hz;
   const std::vector<std::size_t> fit_sizes = allan_cluster_sizes(samples, options.fit_points_per_decade);
@@ -422,7 +464,12 @@ NoiseFit fit_noise_terms(std::span<const AllanPoint> points, std::size_t samples
       e.ci_high = std::max(e.ci_high, widest.ci_high);
     } else {
       e.upper_bound = widest.ci_high;
+      e.value_if_present = widest.value;
+      e.relative_se = widest.relative_se;
     }
+  }
+  if (options.walk_blocks > 0 && rate.size() == samples) {
+    refine_random_walk(rate, rate_hz, options.walk_blocks, z, out);
   }
   // A rate random walk leaves a trend of its own in a record of length T: its
   // least-squares slope has standard deviation K sqrt(6 / (5 T)), which the

@@ -186,6 +186,8 @@ void run(const AllanOptions& o) {
       j[key] = e.included ? nlohmann::json(e.value * q.scale) : nlohmann::json(nullptr);
       j[key + "_ci"] = e.included ? nlohmann::json{e.ci_low * q.scale, e.ci_high * q.scale} : nlohmann::json(nullptr);
       j[key + "_upper"] = !e.included && e.upper_bound > 0.0 ? nlohmann::json(e.upper_bound * q.scale) : nlohmann::json(nullptr);
+      j[key + "_if_present"] =
+          !e.included && e.value_if_present > 0.0 ? nlohmann::json(e.value_if_present * q.scale) : nlohmann::json(nullptr);
     }
     j["fit_valid"] = r.fit.valid;
     if (!o.plot.empty()) j["plot"] = o.plot;
@@ -214,7 +216,8 @@ void run(const AllanOptions& o) {
       std::printf("  %-22s %10.4g %-14s [%.4g, %.4g]\n", q.label, e.value * q.scale, q.unit, e.ci_low * q.scale,
                   e.ci_high * q.scale);
     } else if (e.upper_bound > 0.0) {
-      std::printf("  %-22s %10s %-14s not resolved; below %.4g\n", q.label, "-", q.unit, e.upper_bound * q.scale);
+      std::printf("  %-22s %10s %-14s not resolved; below %.4g; %.4g if present\n", q.label, "-", q.unit,
+                  e.upper_bound * q.scale, e.value_if_present * q.scale);
     } else {
       std::printf("  %-22s %10s %-14s not resolved\n", q.label, "-", q.unit);
     }
@@ -233,7 +236,9 @@ void add_allan_command(CLI::App& app) {
       "degrees of freedom (Greenhall's algorithm for the fitted mixture of noise types), and the\n"
       "terms quantisation Q, angle random walk N, bias instability B, rate random walk K and rate\n"
       "ramp R fitted by maximum likelihood over every cluster time, each with its interval; a term is\n"
-      "reported only when an information criterion supports it. The rate is taken as deg/s.\n"
+      "reported only when an information criterion supports it, and a term not resolved gets an upper\n"
+      "bound and its value if present. K is refined by restricted maximum likelihood on the\n"
+      "differences of 500 block means of the record. The rate is taken as deg/s.\n"
       "Records: `gyrotc simulate --rate-csv` or any CSV with the column.");
   cmd->add_option("--data", options->data, "CSV record with a header row")->required();
   cmd->add_option("--column", options->column, "rate column (deg/s)")->capture_default_str();
@@ -246,8 +251,8 @@ void add_allan_command(CLI::App& app) {
                 "print one JSON object: samples, rate_hz, confidence, tau_s, adev_dps, adev_ci_low_dps,\n"
                 "adev_ci_high_dps, adev_edf, and per term quantisation_deg, arw_deg_per_rt_h,\n"
                 "bias_instability_deg_per_h, rrw_deg_per_h_per_rt_h, rate_ramp_deg_per_h2 (null when not\n"
-                "resolved) with its interval as KEY_ci = [low, high], or KEY_upper, the upper bound of a\n"
-                "term not resolved");
+                "resolved) with its interval as KEY_ci = [low, high], or for a term not resolved KEY_upper,\n"
+                "its upper bound, and KEY_if_present, its value in the best model that has it");
   cmd->callback([options] { run(*options); });
 }
 

@@ -280,3 +280,43 @@ TEST_CASE("a rate random walk and a rate ramp together: both resolved and covere
   CHECK(k_found >= 5);
   CHECK(r_found >= 5);
 }
+
+TEST_CASE("a term not resolved still carries its value if present, within its upper bound; a resolved term's value is its own") {
+  // White noise and a random walk, 800 s at 50 Hz (as above): the bias
+  // instability and the ramp are absent, the random walk often unresolved.
+  for (std::uint64_t seed = 1; seed <= 4; ++seed) {
+    const std::vector<double> y = generate_rate_noise({0.0, 0.01, 0.0, 8e-4, 0.0}, 50.0, 40000, seed);
+    const AllanResult r = allan_deviation(y, 50.0);
+    for (NoiseTerm t : kAllNoiseTerms) {
+      const TermEstimate& e = r.fit.term(t);
+      INFO("seed " << seed << ", " << noise_term_name(t) << ": value " << e.value << ", if present " << e.value_if_present
+                   << ", bound " << e.upper_bound);
+      if (e.included) {
+        CHECK(e.value_if_present == 0.0);
+        CHECK(e.upper_bound == 0.0);
+      } else if (e.value_if_present > 0.0) {
+        CHECK(e.value == 0.0);
+        CHECK(e.value_if_present <= e.upper_bound);
+      }
+    }
+  }
+}
+
+TEST_CASE("a rate random walk beside a bias instability, when not resolved, is still estimated within a factor 2 in >= 5 of 6 records") {
+  // 3 h at 10 Hz of white rate noise, a 10 deg/h bias instability and issue
+  // 20's random walk: the record type where the random walk is unresolved
+  // in about half the records (docs/ALLAN.md). Reporting nothing for it
+  // would be a 100 % error; its value in the best model that has it is
+  // what the record says of it.
+  const double k_true = 2e-4;
+  int close = 0;
+  for (std::uint64_t seed = 1; seed <= 6; ++seed) {
+    const std::vector<double> y = generate_rate_noise({0.0, 0.01, 10.0 / 3600.0, k_true, 0.0}, 10.0, 108000, seed);
+    const AllanResult r = allan_deviation(y, 10.0);
+    const TermEstimate& k = r.fit.term(NoiseTerm::rate_random_walk);
+    const double estimate = k.included ? k.value : k.value_if_present;
+    INFO("seed " << seed << ": K resolved " << k.included << ", estimate " << estimate << ", bound " << k.upper_bound);
+    close += estimate > 0.5 * k_true && estimate < 2.0 * k_true;
+  }
+  CHECK(close >= 5);
+}

@@ -174,6 +174,11 @@ TEST_CASE("fit options outside their range are rejected") {
   o = {};
   o.hadamard_decades = -1.0;
   CHECK_THROWS_AS(allan_deviation(y, 10.0, o), std::invalid_argument);
+  o = {};
+  o.walk_blocks = 5;  // too few block means for a covariance
+  CHECK_THROWS_AS(allan_deviation(y, 10.0, o), std::invalid_argument);
+  o.walk_blocks = 0;  // off
+  CHECK_NOTHROW(allan_deviation(y, 10.0, o));
 }
 
 TEST_CASE("a 10^7-sample record is handled") {

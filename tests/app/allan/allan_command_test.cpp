@@ -90,10 +90,17 @@ TEST_CASE("allan --json gives every field of the issue, with one interval per ta
   // are not resolved (null), each with its key.
   CHECK(j["arw_deg_per_rt_h"].is_number());
   CHECK(j["arw_deg_per_rt_h_ci"].size() == 2);
-  for (const char* key : {"quantisation_deg", "bias_instability_deg_per_h", "rrw_deg_per_h_per_rt_h", "rate_ramp_deg_per_h2"}) {
+  CHECK(j["arw_deg_per_rt_h_upper"].is_null());
+  CHECK(j["arw_deg_per_rt_h_if_present"].is_null());
+  for (const std::string key : {"quantisation_deg", "bias_instability_deg_per_h", "rrw_deg_per_h_per_rt_h", "rate_ramp_deg_per_h2"}) {
     INFO(key);
     CHECK(j.contains(key));
     CHECK(j[key].is_null());
+    // What the record says of the term if it is there, below its bound.
+    CHECK(j.contains(key + "_if_present"));
+    if (j[key + "_if_present"].is_number()) {
+      CHECK(j[key + "_if_present"].get<double>() <= j[key + "_upper"].get<double>());
+    }
   }
 }
 

@@ -65,6 +65,14 @@ struct AllanOptions {
   // in both, through filters of different shape (0.9 and 0.5 gave the same
   // coverage on the calibration seeds; 0.9 the smaller errors).
   double discrepancy_correlation = 0.9;
+  // The rate random walk's value and interval are refined by REML on the
+  // differences of this many block means of the record (allan_walk.hpp):
+  // its information lies in the longest spans, where the Allan points are
+  // few and correlated. 500 blocks hold all but a few percent of the
+  // information (the bound of tools/allan_study --bound changes from 14.9 %
+  // to 14.1 % between 500 and 2000) at O(blocks^2) per step.
+  // 0: the Allan fit's value.
+  std::size_t walk_blocks = 500;
 };
 
 struct AllanPoint {
@@ -94,11 +102,19 @@ struct TermEstimate {
   // the term penalty of the best (the models the data do not tell apart).
   double ci_low = 0.0;
   double ci_high = 0.0;
-  double relative_se = 0.0;  // standard error of the AVAR coefficient / the coefficient, best model
+  // Standard error of the AVAR coefficient / the coefficient: of the value
+  // (best model), or of the value if present for a term not resolved.
+  double relative_se = 0.0;
   // Not resolved: the upper end of the term's interval over the best-scoring
   // model that has it and those within the penalty of the best (0 when no
   // model with the term could be fitted).
   double upper_bound = 0.0;
+  // Not resolved: the term's value in the best-scoring model that has it,
+  // what the record says of the term if it is there (a term the data cannot
+  // confirm may still be real: a rate random walk beside a bias instability
+  // in 3 h is unresolved in about half such records, and this value, not 0,
+  // is the better guess of it). 0 when no model with the term could be fitted.
+  double value_if_present = 0.0;
 };
 
 struct NoiseFit {
@@ -129,7 +145,8 @@ struct AllanResult {
 // The record's mean is removed first: it does not change AVAR and keeps the
 // cumulative sum small, so the differences keep their precision.
 //
-// Then fit_noise_terms, and each point's interval from the chi-square
+// Then fit_noise_terms (with the record, for the random walk's REML), and
+// each point's interval from the chi-square
 // distribution with the EDF of the fitted noise mixture at its tau.
 //
 // Throws std::invalid_argument for fewer than 2 samples, a non-positive or
@@ -154,8 +171,17 @@ AllanResult allan_deviation(std::span<const double> rate, double rate_hz, const 
 // interval also holds the trend a rate random walk leaves in the record,
 // K sqrt(6 / (5 T)) (the Hadamard points tell the two apart only as far as
 // their few long clusters allow).
+//
+// Given the record itself (`rate`, the samples the points came from) and
+// options.walk_blocks > 0, the rate random walk's value (or value if
+// present) comes from reml_random_walk on the record's block means, under
+// the chosen model (its quantisation and white rate held, its bias
+// instability estimated beside the walk), where the walk is under half the
+// fitted Allan variance at the block length (elsewhere the short clusters
+// know it better); its interval then spans both the fit's and the REML
+// one. Whether the walk is resolved stays the fit's decision.
 NoiseFit fit_noise_terms(std::span<const AllanPoint> points, std::size_t samples, double rate_hz,
-                         const AllanOptions& options = {});
+                         const AllanOptions& options = {}, std::span<const double> rate = {});
 
 // EDF of the Allan variance estimate at cluster size m (tau = m tau0) of a
 // record of `samples` samples under the fitted mixture of noise types:
