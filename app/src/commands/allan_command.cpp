@@ -237,8 +237,9 @@ void add_allan_command(CLI::App& app) {
       "terms quantisation Q, angle random walk N, bias instability B, rate random walk K and rate\n"
       "ramp R fitted by maximum likelihood over every cluster time, each with its interval; a term is\n"
       "reported only when an information criterion supports it, and a term not resolved gets an upper\n"
-      "bound and its value if present. K is refined by restricted maximum likelihood on the\n"
-      "differences of 500 block means of the record. The rate is taken as deg/s.\n"
+      "bound and its value if present. Where K hides under another noise at short tau, its value\n"
+      "comes from restricted maximum likelihood on the differences of 500 block means of the\n"
+      "record. The rate is taken as deg/s.\n"
       "Records: `gyrotc simulate --rate-csv` or any CSV with the column.");
   cmd->add_option("--data", options->data, "CSV record with a header row")->required();
   cmd->add_option("--column", options->column, "rate column (deg/s)")->capture_default_str();
