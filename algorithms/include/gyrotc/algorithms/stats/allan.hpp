@@ -69,8 +69,9 @@ struct AllanOptions {
   // differences of this many block means of the record (allan_walk.hpp):
   // its information lies in the longest spans, where the Allan points are
   // few and correlated. 500 blocks hold all but a few percent of the
-  // information (the bound of tools/allan_study --bound changes from 14.9 %
-  // to 14.1 % between 500 and 2000) at O(blocks^2) per step.
+  // information (the bound of tools/allan_study --bound next to a bias
+  // instability: 14.9 % at 500, 14.2 % at 2000, 14.1 % at 4000) at
+  // O(blocks^2) per step.
   // 0: the Allan fit's value.
   std::size_t walk_blocks = 500;
 };
