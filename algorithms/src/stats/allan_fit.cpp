@@ -246,8 +246,8 @@ SubsetFit fit_subset(const Problem& pr, const std::vector<std::size_t>& terms) {
 // walk that rules down to shorter clusters (alone, say) is known far better
 // from them (a random walk alone: 0.1 % median error from the fit, 1.9 %
 // from the block means). The interval spans the fit's and the REML one (z
-// its normal quantile); a walk not resolved keeps that status, with the
-// REML value as its value if present.
+// its normal quantile); a walk not resolved keeps that status and the fit's
+// upper bound, with the REML value as its value if present.
 void refine_random_walk(std::span<const double> rate, double rate_hz, std::size_t blocks, double z, NoiseFit& fit) {
   TermEstimate& walk = fit.terms[static_cast<std::size_t>(NoiseTerm::rate_random_walk)];
   const double start = walk.included ? walk.value : walk.value_if_present;
@@ -267,15 +267,19 @@ void refine_random_walk(std::span<const double> rate, double rate_hz, std::size_
   const WalkEstimate w = reml_random_walk(rate, rate_hz, c, blocks);
   if (!w.ok) return;
   const double value = term_value(NoiseTerm::rate_random_walk, w.walk_coefficient);
-  const double high = term_value(NoiseTerm::rate_random_walk, w.walk_coefficient * std::exp(z * w.relative_se));
   if (walk.included) {
     walk.value = value;
     walk.relative_se = w.relative_se;
     walk.ci_low = std::min(walk.ci_low, term_value(NoiseTerm::rate_random_walk, w.walk_coefficient * std::exp(-z * w.relative_se)));
-    walk.ci_high = std::max(walk.ci_high, high);
+    const double high = term_value(NoiseTerm::rate_random_walk, w.walk_coefficient * std::exp(z * w.relative_se));
+    if (std::isfinite(high)) walk.ci_high = std::max(walk.ci_high, high);
   } else {
+    // The fit's bound stands: a walk the data do not show has a REML value
+    // near 0 whose log-normal interval says nothing (a relative standard
+    // error of hundreds).
     walk.value_if_present = value;
-    walk.upper_bound = std::max(walk.upper_bound, high);
+    walk.relative_se = w.relative_se;
+    walk.upper_bound = std::max(walk.upper_bound, value);
   }
 }
 

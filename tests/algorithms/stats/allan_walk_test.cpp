@@ -100,3 +100,20 @@ TEST_CASE("allan takes the walk from the block means only where it hides below a
   CHECK(walk(refined) != walk(allan_deviation(hidden, 10.0, off)));
   CHECK(walk(refined) > 0.0);
 }
+
+TEST_CASE("records with no walk to speak of keep a finite upper bound for it, over 20 seeds") {
+  // 6 s of white noise and a ramp: 500 blocks of one sample each, where the
+  // walk's REML value is near 0 and its log-normal interval reached infinity.
+  for (std::uint64_t seed = 1; seed <= 20; ++seed) {
+    const std::vector<double> y = generate_rate_noise({0.0, kArw, 0.0, 0.0, 0.01}, 100.0, 600, seed);
+    const AllanResult r = allan_deviation(y, 100.0);
+    REQUIRE(r.fit.valid);
+    for (NoiseTerm t : kAllNoiseTerms) {
+      const TermEstimate& e = r.fit.term(t);
+      INFO("seed " << seed << ", " << noise_term_name(t) << ": bound " << e.upper_bound << ", interval " << e.ci_low
+                   << ".." << e.ci_high);
+      CHECK(std::isfinite(e.upper_bound));
+      CHECK(std::isfinite(e.ci_high));
+    }
+  }
+}

@@ -180,7 +180,8 @@ AllanResult allan_deviation(std::span<const double> rate, double rate_hz, const 
 // instability estimated beside the walk), where the walk is under half the
 // fitted Allan variance at the block length (elsewhere the short clusters
 // know it better); its interval then spans both the fit's and the REML
-// one. Whether the walk is resolved stays the fit's decision.
+// one. Whether the walk is resolved, and the upper bound of a walk not
+// resolved, stay the fit's.
 NoiseFit fit_noise_terms(std::span<const AllanPoint> points, std::size_t samples, double rate_hz,
                          const AllanOptions& options = {}, std::span<const double> rate = {});
 
