@@ -306,8 +306,8 @@ TEST_CASE("a rate random walk beside a bias instability, when not resolved, is s
   // 3 h at 10 Hz of white rate noise, a 10 deg/h bias instability and issue
   // 20's random walk: the record type where the random walk is unresolved
   // in about half the records (docs/ALLAN.md). Reporting nothing for it
-  // would be a 100 % error; its value in the best model that has it is
-  // what the record says of it.
+  // would be a 100 % error; its value if present (here from the REML of the
+  // block means) is what the record says of it.
   const double k_true = 2e-4;
   int close = 0;
   for (std::uint64_t seed = 1; seed <= 6; ++seed) {

@@ -114,7 +114,8 @@ struct TermEstimate {
   // what the record says of the term if it is there (a term the data cannot
   // confirm may still be real: a rate random walk beside a bias instability
   // in 3 h is unresolved in about half such records, and this value, not 0,
-  // is the better guess of it). 0 when no model with the term could be fitted.
+  // is the better guess of it; the random walk's is refined by REML as
+  // fit_noise_terms says). 0 when no model with the term could be fitted.
   double value_if_present = 0.0;
 };
 
