@@ -656,7 +656,13 @@ int main(int argc, char** argv) {
   const auto a = keep(family_a());
   const auto b = keep(family_b());
   const auto c = keep(family_c());
-  if (!only.empty()) skip_training = true;
+  if (!only.empty()) {
+    if (a.empty() && b.empty() && c.empty()) {
+      std::fprintf(stderr, "identify_sweep: --only %s: no scenario name contains it\n", only.c_str());
+      return 2;
+    }
+    skip_training = true;
+  }
 
   // 1. Choose the thresholds on the training seeds: the series settings on
   // family A, the table p-value on family B.

@@ -252,17 +252,17 @@ void refine_random_walk(std::span<const double> rate, double rate_hz, std::size_
   TermEstimate& walk = fit.terms[static_cast<std::size_t>(NoiseTerm::rate_random_walk)];
   const double start = walk.included ? walk.value : walk.value_if_present;
   if (!(start > 0.0) || rate.size() < blocks) return;
+  const double block_s = static_cast<double>(rate.size() / blocks) / rate_hz;
   std::array<double, 4> c{};
+  double others = 0.0;  // the other terms' Allan variance at the block length
   for (NoiseTerm t : {NoiseTerm::quantisation, NoiseTerm::angle_random_walk, NoiseTerm::bias_instability}) {
     const TermEstimate& e = fit.term(t);
-    if (e.included) c[static_cast<std::size_t>(*noise_type(t))] = avar_coefficient(t, e.value);
+    if (!e.included) continue;
+    const double coefficient = avar_coefficient(t, e.value);
+    c[static_cast<std::size_t>(*noise_type(t))] = coefficient;
+    others += coefficient * std::pow(block_s, noise_term_power(t));
   }
   c[3] = avar_coefficient(NoiseTerm::rate_random_walk, start);
-  const double block_s = static_cast<double>(rate.size() / blocks) / rate_hz;
-  double others = 0.0;
-  for (NoiseTerm t : {NoiseTerm::quantisation, NoiseTerm::angle_random_walk, NoiseTerm::bias_instability}) {
-    others += c[static_cast<std::size_t>(*noise_type(t))] * std::pow(block_s, noise_term_power(t));
-  }
   if (c[3] * block_s >= others) return;
   const WalkEstimate w = reml_random_walk(rate, rate_hz, c, blocks);
   if (!w.ok) return;

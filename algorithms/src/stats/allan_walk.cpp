@@ -27,6 +27,21 @@ Eigen::VectorXd apply_p(const RemlState& s, const Eigen::VectorXd& v) {
   return s.inverse * v - s.a * (s.a.dot(v) / s.w);
 }
 
+// The average information, (S_j P d)' P (S_k P d) / 2, and the S_j P d it
+// is made of (the score needs them too).
+Eigen::MatrixXd average_information(const RemlState& s, const std::vector<Eigen::MatrixXd>& parts,
+                                    std::vector<Eigen::VectorXd>& spy) {
+  const auto p = static_cast<Eigen::Index>(parts.size());
+  spy.clear();
+  for (const Eigen::MatrixXd& part : parts) spy.push_back(part * s.py);
+  Eigen::MatrixXd information(p, p);
+  for (Eigen::Index j = 0; j < p; ++j) {
+    const Eigen::VectorXd pj = apply_p(s, spy[static_cast<std::size_t>(j)]);
+    for (Eigen::Index k = 0; k < p; ++k) information(j, k) = 0.5 * pj.dot(spy[static_cast<std::size_t>(k)]);
+  }
+  return information;
+}
+
 RemlState evaluate(const Eigen::VectorXd& column, const Eigen::VectorXd& d) {
   RemlState s;
   ToeplitzInverse t = toeplitz_inverse(column);
@@ -97,23 +112,17 @@ WalkEstimate reml_random_walk(std::span<const double> rate, double rate_hz, cons
   };
   RemlState state = evaluate(column(theta), d);
   if (!std::isfinite(state.log_l)) return out;
-  Eigen::MatrixXd information(p, p);
+  std::vector<Eigen::VectorXd> spy;
   bool converged = false;
   for (int iteration = 0; iteration < 100 && !converged; ++iteration) {
+    const Eigen::MatrixXd information = average_information(state, dense, spy);
     // Score: (d' P S_j P d - tr(P S_j)) / 2, with
     // tr(P S_j) = tr(Sigma^-1 S_j) - a' S_j a / w.
     Eigen::VectorXd score(p);
-    std::vector<Eigen::VectorXd> spy;
     for (Eigen::Index j = 0; j < p; ++j) {
       const Eigen::MatrixXd& s = dense[static_cast<std::size_t>(j)];
       const double trace = state.inverse.cwiseProduct(s).sum() - state.a.dot(s * state.a) / state.w;
-      spy.push_back(s * state.py);
-      score(j) = 0.5 * (state.py.dot(spy.back()) - trace);
-    }
-    // Average information: (S_j P d)' P (S_k P d) / 2.
-    for (Eigen::Index j = 0; j < p; ++j) {
-      const Eigen::VectorXd pj = apply_p(state, spy[static_cast<std::size_t>(j)]);
-      for (Eigen::Index k = 0; k < p; ++k) information(j, k) = 0.5 * pj.dot(spy[static_cast<std::size_t>(k)]);
+      score(j) = 0.5 * (state.py.dot(spy[static_cast<std::size_t>(j)]) - trace);
     }
     const Eigen::VectorXd step = information.ldlt().solve(score);
     if (!step.allFinite()) return out;
@@ -136,13 +145,7 @@ WalkEstimate reml_random_walk(std::span<const double> rate, double rate_hz, cons
     if (!moved) break;
   }
   // The information at the optimum, for the standard error.
-  std::vector<Eigen::VectorXd> spy;
-  for (Eigen::Index j = 0; j < p; ++j) spy.push_back(dense[static_cast<std::size_t>(j)] * state.py);
-  for (Eigen::Index j = 0; j < p; ++j) {
-    const Eigen::VectorXd pj = apply_p(state, spy[static_cast<std::size_t>(j)]);
-    for (Eigen::Index k = 0; k < p; ++k) information(j, k) = 0.5 * pj.dot(spy[static_cast<std::size_t>(k)]);
-  }
-  const Eigen::MatrixXd covariance = information.ldlt().solve(Eigen::MatrixXd::Identity(p, p));
+  const Eigen::MatrixXd covariance = average_information(state, dense, spy).ldlt().solve(Eigen::MatrixXd::Identity(p, p));
   if (!covariance.allFinite() || !(covariance(0, 0) > 0.0)) return out;
   out.walk_coefficient = theta(0);
   out.flicker_coefficient = flicker ? theta(1) : 0.0;

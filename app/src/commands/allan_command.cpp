@@ -253,7 +253,7 @@ void add_allan_command(CLI::App& app) {
                 "adev_ci_high_dps, adev_edf, and per term quantisation_deg, arw_deg_per_rt_h,\n"
                 "bias_instability_deg_per_h, rrw_deg_per_h_per_rt_h, rate_ramp_deg_per_h2 (null when not\n"
                 "resolved) with its interval as KEY_ci = [low, high], or for a term not resolved KEY_upper,\n"
-                "its upper bound, and KEY_if_present, its value in the best model that has it");
+                "its upper bound, and KEY_if_present, its value if present (docs/ALLAN.md)");
   cmd->callback([options] { run(*options); });
 }
 

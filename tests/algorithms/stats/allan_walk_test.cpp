@@ -10,7 +10,6 @@
 #include "gyrotc_catch.hpp"
 
 using namespace gyrotc::stats;
-using gyrotc::model::RateNoise;
 using gyrotc::model::generate_rate_noise;
 
 namespace {
