@@ -1,11 +1,9 @@
 #include <CLI/CLI.hpp>
 
-#include <cstdio>
-#include <exception>
 #include <string>
 
+#include "gyrotc/app/cli_main.hpp"
 #include "gyrotc/app/commands.hpp"
-#include "gyrotc/app/errors.hpp"
 #include "gyrotc/app/version.hpp"
 
 int main(int argc, char** argv) {
@@ -25,18 +23,5 @@ int main(int argc, char** argv) {
   gyrotc::app::add_record_command(cli);
   gyrotc::app::add_safe_off_command(cli);
 
-  try {
-    cli.parse(argc, argv);
-  } catch (const CLI::ParseError& e) {
-    return cli.exit(e);
-  } catch (const gyrotc::app::CommandExit& e) {
-    return e.status();
-  } catch (const gyrotc::app::InputError& e) {
-    std::fprintf(stderr, "gyrotc: error: %s\n", e.what());
-    return 2;
-  } catch (const std::exception& e) {
-    std::fprintf(stderr, "gyrotc: error: %s\n", e.what());
-    return 1;
-  }
-  return 0;
+  return gyrotc::app::run_cli(cli, argc, argv, "gyrotc");
 }

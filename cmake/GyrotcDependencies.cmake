@@ -60,6 +60,24 @@ endif()
 
 find_package(Threads REQUIRED)
 
+# The board emulator (emu/, docs/EMULATOR.md): a separate executable, never
+# part of gyrotc. AUTO builds it when libfuse3 (CUSE and FUSE) is found.
+set(GYROTC_EMU "AUTO" CACHE STRING "Build gyrotc-emu: AUTO (when libfuse3 is found), ON or OFF")
+set_property(CACHE GYROTC_EMU PROPERTY STRINGS AUTO ON OFF)
+set(GYROTC_BUILD_EMU OFF)
+if(NOT GYROTC_EMU STREQUAL "OFF")
+  pkg_check_modules(FUSE3 QUIET IMPORTED_TARGET fuse3)
+  if(FUSE3_FOUND)
+    set(GYROTC_BUILD_EMU ON)
+    message(STATUS "gyrotc: libfuse3 ${FUSE3_VERSION}: gyrotc-emu is built")
+  elseif(GYROTC_EMU STREQUAL "ON")
+    gyrotc_missing("libfuse3 (GYROTC_EMU=ON)" "libfuse3-dev${_gyrotc_pkg_arch}")
+  else()
+    message(STATUS "gyrotc: libfuse3 not found: gyrotc-emu is not built (apt-get install "
+                   "libfuse3-dev${_gyrotc_pkg_arch})")
+  endif()
+endif()
+
 # READY=1 / WATCHDOG=1 for the Type=notify unit. gyrotc speaks the sd_notify
 # datagram protocol itself (app/src/daemon/systemd_notify.cpp): no libsystemd,
 # so cross builds (whose libsystemd-dev:arm64 does not co-install on bookworm)

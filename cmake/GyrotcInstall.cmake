@@ -52,8 +52,34 @@ file(GLOB _gyrotc_docs CONFIGURE_DEPENDS ${CMAKE_CURRENT_SOURCE_DIR}/docs/*.md)
 install(FILES ${CMAKE_CURRENT_SOURCE_DIR}/README.md ${_gyrotc_docs} ${CMAKE_CURRENT_SOURCE_DIR}/LICENSE
   ${_gyrotc_deploy}/debian/copyright DESTINATION ${CMAKE_INSTALL_DOCDIR})
 
+# The board emulator's package (docs/EMULATOR.md): its examples and documents.
+if(GYROTC_BUILD_EMU)
+  install(FILES ${_gyrotc_deploy}/emu/gyrotc-emu.toml ${_gyrotc_deploy}/emu/plant-fast.toml
+          DESTINATION ${CMAKE_INSTALL_DATADIR}/gyrotc-emu COMPONENT emu)
+  install(FILES ${CMAKE_CURRENT_SOURCE_DIR}/docs/EMULATOR.md ${CMAKE_CURRENT_SOURCE_DIR}/LICENSE
+          ${_gyrotc_deploy}/debian/copyright DESTINATION ${CMAKE_INSTALL_DATADIR}/doc/gyrotc-emu COMPONENT emu)
+endif()
+
 # --- DEB (cpack -G DEB from a build configured with -DCMAKE_INSTALL_PREFIX=/usr) ---
+# Two packages: gyrotc (the daemon and everything above) and, when it is
+# built, gyrotc-emu (the board emulator: never needed on a board that has its
+# hardware). The ptest component stays out of both.
 set(CPACK_GENERATOR DEB)
+set(CPACK_DEB_COMPONENT_INSTALL ON)
+set(CPACK_COMPONENTS_ALL Unspecified)
+if(GYROTC_BUILD_EMU)
+  list(APPEND CPACK_COMPONENTS_ALL emu)
+endif()
+set(CPACK_DEBIAN_UNSPECIFIED_PACKAGE_NAME gyrotc)
+set(CPACK_DEBIAN_EMU_PACKAGE_NAME gyrotc-emu)
+set(CPACK_DEBIAN_EMU_PACKAGE_SECTION devel)
+set(CPACK_DEBIAN_EMU_PACKAGE_SUGGESTS gyrotc)
+string(CONCAT CPACK_DEBIAN_EMU_DESCRIPTION
+  "gyrotc board emulator: the simulated board behind CUSE, gpio-sim and w1\n"
+  "gyrotc-emu presents the simulated gyrotc board (ADS1251, AD5060, OPA548, DS18B20\n"
+  "and the thermal plant) at the kernel's own interfaces, so that the unmodified\n"
+  "daemon with hal = linux runs against it: bring-up of a board configuration\n"
+  "before the hardware exists, and hardware-in-the-loop tests.")
 set(CPACK_PACKAGE_NAME gyrotc)
 set(CPACK_PACKAGE_VENDOR "gyrotc")
 set(CPACK_PACKAGE_CONTACT "gyrotc maintainers <gyrotc@localhost>")
@@ -62,7 +88,7 @@ set(CPACK_PACKAGING_INSTALL_PREFIX "${CMAKE_INSTALL_PREFIX}")
 set(CPACK_DEBIAN_FILE_NAME DEB-DEFAULT)
 set(CPACK_DEBIAN_PACKAGE_SECTION science)
 set(CPACK_DEBIAN_PACKAGE_SHLIBDEPS ON)  # libgpiod2, libstdc++6 ... from the binary
-set(CPACK_DEBIAN_PACKAGE_DEPENDS "adduser")
+set(CPACK_DEBIAN_UNSPECIFIED_PACKAGE_DEPENDS "adduser")
 set(CPACK_DEBIAN_PACKAGE_HOMEPAGE "https://localhost/gyrotc")
 if(CMAKE_CROSSCOMPILING AND CMAKE_LIBRARY_ARCHITECTURE MATCHES "aarch64")
   set(CPACK_DEBIAN_PACKAGE_ARCHITECTURE arm64)
@@ -72,8 +98,18 @@ endif()
 # Keep a site's edited configuration and calibration across upgrades.
 file(CONFIGURE OUTPUT ${CMAKE_CURRENT_BINARY_DIR}/deploy/debian/conffiles CONTENT
   "${_gyrotc_confdir}/gyrotc.toml\n${_gyrotc_confdir}/gyrotc-sim.toml\n${_gyrotc_confdir}/calibration.toml\n")
-set(CPACK_DEBIAN_PACKAGE_CONTROL_EXTRA
+# preinst creates the user and group from the sysusers entries before the udev rule
+# naming the group is unpacked (why: deploy/debian/preinst.in).
+file(STRINGS ${_gyrotc_deploy}/systemd/gyrotc.sysusers _gyrotc_sysusers_entries REGEX "^[^#]")
+list(JOIN _gyrotc_sysusers_entries "\n" GYROTC_SYSUSERS_ENTRIES)
+cmake_path(ABSOLUTE_PATH GYROTC_SYSUSERSDIR BASE_DIRECTORY ${CMAKE_INSTALL_PREFIX}
+  OUTPUT_VARIABLE GYROTC_SYSUSERS_FILE)
+string(APPEND GYROTC_SYSUSERS_FILE "/gyrotc.conf")
+configure_file(${_gyrotc_deploy}/debian/preinst.in ${CMAKE_CURRENT_BINARY_DIR}/deploy/debian/preinst
+  @ONLY FILE_PERMISSIONS OWNER_READ OWNER_WRITE OWNER_EXECUTE GROUP_READ GROUP_EXECUTE
+  WORLD_READ WORLD_EXECUTE)
+set(CPACK_DEBIAN_UNSPECIFIED_PACKAGE_CONTROL_EXTRA
   ${CMAKE_CURRENT_BINARY_DIR}/deploy/debian/conffiles
-  ${_gyrotc_deploy}/debian/postinst ${_gyrotc_deploy}/debian/prerm ${_gyrotc_deploy}/debian/postrm)
+  ${CMAKE_CURRENT_BINARY_DIR}/deploy/debian/preinst ${_gyrotc_deploy}/debian/postinst ${_gyrotc_deploy}/debian/prerm ${_gyrotc_deploy}/debian/postrm)
 set(CPACK_DEBIAN_PACKAGE_CONTROL_STRICT_PERMISSION ON)
 include(CPack)

@@ -39,11 +39,13 @@ for w in "${want[@]}"; do
     native)
       pkgs+=(build-essential cmake pkg-config file libeigen3-dev libgpiod-dev "$catch2" libcli11-dev
              libtomlplusplus-dev nlohmann-json3-dev libbenchmark-dev
+             libfuse3-dev  # the board emulator, gyrotc-emu (docs/EMULATOR.md)
              systemd) ;;  # systemd: systemd-analyze for tests/deploy
     aarch64 | armhf)
       if [ "$w" = aarch64 ]; then arch=arm64 triple=aarch64-linux-gnu; else arch=armhf triple=arm-linux-gnueabihf; fi
       need_arch+=("$arch")
-      pkgs+=("g++-$triple" qemu-user "libgpiod-dev:$arch" "libtomlplusplus-dev:$arch" "libbenchmark-dev:$arch")
+      pkgs+=("g++-$triple" qemu-user "libgpiod-dev:$arch" "libtomlplusplus-dev:$arch" "libbenchmark-dev:$arch"
+             "libfuse3-dev:$arch")
       [ "$catch2" = libcatch2-dev ] && cross_catch2+=("$arch") ;;
     bench)
       pkgs+=(rt-tests time jq) ;;  # cyclictest, /usr/bin/time, JSON for scripts/bench.sh

@@ -2,8 +2,9 @@
 # The hostile-ADS1251 run (issue 21): `gyrotc run` on the simulated board in
 # real time at 1 kSPS, with the simulated reader's timing randomised on top of
 # this host's own latency: wake-ups 0-300 us after the DRDY edge, 2 % of them
-# stalls of up to 3 ms (past the 906 us DOUT window), edge events delivered up
-# to 40 us late, SPI messages starting up to 100 us late and returning up to
+# stalls of up to 3 ms (past the 937.5 us DOUT mode), edge events delivered up
+# to 40 us late and stamped up to 40 us late (the driver told so:
+# stamp_latency_max_s), SPI messages starting up to 100 us late and returning up to
 # 50 us after their last clock. Passes when no corrupted sample reached the
 # controller and every corrupted transfer was counted as a late read; prints
 # the counts of the run's summary (--summary-json).
@@ -45,6 +46,8 @@ sed -e 's/^adc_wake_min_us = .*/adc_wake_min_us = 0.0/' \
     -e 's/^adc_stall_probability = .*/adc_stall_probability = 0.02/' \
     -e 's/^adc_stall_max_us = .*/adc_stall_max_us = 3000.0/' \
     -e 's/^adc_irq_delay_max_us = .*/adc_irq_delay_max_us = 40.0/' \
+    -e 's/^adc_stamp_delay_max_us = .*/adc_stamp_delay_max_us = 40.0/' \
+    -e 's/^stamp_latency_max_s = .*/stamp_latency_max_s = 0.00004/' \
     -e 's/^adc_spi_start_max_us = .*/adc_spi_start_max_us = 100.0/' \
     -e 's/^adc_spi_return_max_us = .*/adc_spi_return_max_us = 50.0/' \
     -e 's/^stream = .*/stream = "none"/' \

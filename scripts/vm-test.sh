@@ -31,17 +31,20 @@ Options:
   --cache DIR              where the build chroot, the root and the kernel are kept
                            between runs (default build/vm-test)
   --refresh                rebuild the cached build chroot and root from the archive
-  --timeout MIN            give up on the VM after MIN minutes (default 30)
+  --timeout MIN            give up on the VM after MIN minutes (default 40)
+  --guest-script FILE      run FILE in the VM instead of scripts/vm/guest-checks.sh
+                           (development: it gets the same /vmtest folder)
   -h, --help               this text
 
 Environment: GYROTC_VM_MIRROR (default http://deb.debian.org/debian) and
 GYROTC_VM_SECURITY_MIRROR (default http://deb.debian.org/debian-security).
 The first run downloads about 600 MB and takes 15-40 min on 2 cores; later runs
-rebuild only what changed and boot the cached root. Logs: <cache>/logs/.
+rebuild only what changed and boot the cached root. Logs: <cache>/logs/; what the
+guest saw (its journal, the emulator's event log, the records): <cache>/run-*/artifacts/.
 EOF
 }
 
-arch=aarch64 suite=trixie cache=build/vm-test refresh=0 timeout_min=30
+arch=aarch64 suite=trixie cache=build/vm-test refresh=0 timeout_min=40 guest_script=scripts/vm/guest-checks.sh
 while [ $# -gt 0 ]; do
   case "$1" in
     aarch64 | amd64) arch=$1 ;;
@@ -49,6 +52,7 @@ while [ $# -gt 0 ]; do
     --cache) cache=${2:?--cache needs a folder}; shift ;;
     --refresh) refresh=1 ;;
     --timeout) timeout_min=${2:?--timeout needs minutes}; shift ;;
+    --guest-script) guest_script=${2:?--guest-script needs a file}; shift ;;
     -h | --help) usage; exit 0 ;;
     *) echo "vm-test: unknown argument '$1' (see --help)" >&2; exit 2 ;;
   esac
@@ -56,6 +60,7 @@ while [ $# -gt 0 ]; do
 done
 case "$suite" in trixie | bookworm) ;; *) echo "vm-test: --suite must be trixie or bookworm, not '$suite'" >&2; exit 2 ;; esac
 [[ "$timeout_min" =~ ^[0-9]+$ ]] && [ "$timeout_min" -gt 0 ] || { echo "vm-test: --timeout wants whole minutes, got '$timeout_min'" >&2; exit 2; }
+[ -f "$guest_script" ] || { echo "vm-test: --guest-script '$guest_script': no such file" >&2; exit 2; }
 
 case "$arch" in
   aarch64) debarch=arm64 triple=aarch64-linux-gnu karch=arm64 qemu=qemu-system-aarch64 console=ttyAMA0
@@ -69,7 +74,7 @@ sources=("deb $mirror $suite main" "deb $mirror $suite-updates main" "deb $secur
 
 t0=$SECONDS
 say() { echo "vm-test: $* [$(((SECONDS - t0) / 60))m$(((SECONDS - t0) % 60))s]" >&2; }
-mapfile -t plan < <(bash scripts/vm/guest-checks.sh --plan | sed -n 's/^vm-test: plan //p' | tr ' ' '\n')
+mapfile -t plan < <(bash "$guest_script" --plan | sed -n 's/^vm-test: plan //p' | tr ' ' '\n')
 # A step on this machine failed: that check fails, the VM never runs.
 die() {
   echo "FAIL $1: $2"
@@ -107,10 +112,10 @@ stamp_ok() { [ "$refresh" = 0 ] && [ -f "$1/.vm-test-stamp" ] && [ "$(cat "$1/.v
 build_pkgs=(cmake make pkg-config file dpkg-dev xz-utils kmod libeigen3-dev libcli11-dev nlohmann-json3-dev)
 if [ "$debarch" = "$host_arch" ]; then
   build_archs=$host_arch
-  build_pkgs+=(g++ libgpiod-dev libtomlplusplus-dev)
+  build_pkgs+=(g++ libgpiod-dev libtomlplusplus-dev libfuse3-dev)
 else
   build_archs=$host_arch,$debarch
-  build_pkgs+=("g++-$triple" "libgpiod-dev:$debarch" "libtomlplusplus-dev:$debarch")
+  build_pkgs+=("g++-$triple" "libgpiod-dev:$debarch" "libtomlplusplus-dev:$debarch" "libfuse3-dev:$debarch")
 fi
 stamp="$suite $build_archs ${build_pkgs[*]} ${sources[*]}"
 if ! stamp_ok "$bc" "$stamp"; then
@@ -131,7 +136,8 @@ in_chroot apt-get update -qq >"$logs/apt-update.log" 2>&1 || die build-chroot "a
 runtime_of() { in_chroot apt-cache show --no-all-versions "$1" | sed -n 's/^Depends: //p' | tr ',' '\n' | sed 's/[ (].*//;s/^ *//' | grep '^lib' | head -1; }
 dev_arch=$([ "$debarch" = "$host_arch" ] && echo "" || echo ":$debarch")
 root_pkgs=(systemd-sysv udev apt kmod gpiod procps adduser
-           "$(runtime_of "libgpiod-dev$dev_arch")" "$(runtime_of "libtomlplusplus-dev$dev_arch")")
+           "$(runtime_of "libgpiod-dev$dev_arch")" "$(runtime_of "libtomlplusplus-dev$dev_arch")"
+           "$(runtime_of "libfuse3-dev$dev_arch")")
 kmeta=linux-image-$debarch
 kimg=$(in_chroot apt-cache depends "$kmeta$dev_arch" | sed -n 's/^ *Depends: \(linux-image-[^: ]*\).*/\1/p' | head -1)
 [ -n "$kimg" ] || die kernel "no kernel package behind $kmeta in $suite"
@@ -154,22 +160,39 @@ else
 fi
 
 say "[3/5] DEB: cmake + cpack in the build chroot (log: $logs/build.log)"
-rm -rf "$bc/src" && mkdir -p "$bc/src"
+# The sources into the chroot for an incremental build: a file whose content
+# changed gets the copy time as its mtime (make must rebuild what uses it, even
+# if it was edited while an earlier build ran), an unchanged one keeps the
+# previous copy's; files gone from the tree go from the copy.
+rm -rf "$bc/src.new" && mkdir -p "$bc/src.new" "$bc/src"
 if git rev-parse --is-inside-work-tree >/dev/null 2>&1; then
   # Tracked and new files of the work tree as they are now (uncommitted edits too).
   git ls-files -z -co --exclude-standard | while IFS= read -r -d '' f; do [ -e "$f" ] && printf '%s\0' "$f"; done |
-    tar --null -T - -cf - | tar -xf - -C "$bc/src"
+    tar --null -T - -cf - | tar -xf - -C "$bc/src.new"
 else
-  tar --exclude=./build --exclude=./.git -cf - . | tar -xf - -C "$bc/src"
+  tar --exclude=./build --exclude=./.git -cf - . | tar -xf - -C "$bc/src.new"
 fi
+(cd "$bc/src.new" && find . -type f -print0) | while IFS= read -r -d '' f; do
+  if ! cmp -s "$bc/src.new/$f" "$bc/src/$f"; then
+    mkdir -p "$bc/src/$(dirname "$f")"
+    cp "$bc/src.new/$f" "$bc/src/$f" && chmod --reference="$bc/src.new/$f" "$bc/src/$f"
+  fi
+done
+(cd "$bc/src" && find . -type f -print0) | while IFS= read -r -d '' f; do
+  [ -e "$bc/src.new/$f" ] || rm -f "$bc/src/$f"
+done
+rm -rf "$bc/src.new"
 in_chroot sh -ec "
   cmake -S /src -B /build -DCMAKE_BUILD_TYPE=Release -DCMAKE_INSTALL_PREFIX=/usr \
         -DGYROTC_BUILD_TESTS=OFF -DGYROTC_BUILD_BENCH=OFF ${toolchain:+-DCMAKE_TOOLCHAIN_FILE=$toolchain}
   cmake --build /build -j$(nproc)
-  rm -f /build/gyrotc_*.deb
+  rm -f /build/gyrotc_*.deb /build/gyrotc-emu_*.deb
   cd /build && cpack -G DEB" >"$logs/build.log" 2>&1 || { [ -n "$root_pid" ] && kill "$root_pid" 2>/dev/null || true; die build "the DEB did not build" "$logs/build.log"; }
 deb=$(cd "$bc/build" && ls gyrotc_*_"$debarch".deb)
+emu_deb=$(cd "$bc/build" && ls gyrotc-emu_*_"$debarch".deb 2>/dev/null) ||
+  die build "no gyrotc-emu package: the build did not find libfuse3 (see $logs/build.log)" "$logs/build.log"
 say "      $deb: Depends: $(dpkg-deb -f "$bc/build/$deb" Depends)"
+say "      $emu_deb: Depends: $(dpkg-deb -f "$bc/build/$emu_deb" Depends)"
 
 # --- 4. Debian's kernel and gpio-sim built for it ------------------------------------------
 if [ -n "$root_pid" ]; then
@@ -223,17 +246,18 @@ fi
 
 # Every dependency of the DEB must be in the root: there is no network in the VM.
 missing=()
-for dep in $(dpkg-deb -f "$bc/build/$deb" Depends | tr ',' '\n' | sed 's/[ (|].*//;s/^ *//'); do
+for dep in $( (dpkg-deb -f "$bc/build/$deb" Depends; echo ,; dpkg-deb -f "$bc/build/$emu_deb" Depends) | tr ',' '\n' | sed 's/[ (|].*//;s/^ *//'); do
   grep -qx "Package: $dep" "$rd/dpkg-status" || missing+=("$dep")
 done
 [ ${#missing[@]} -eq 0 ] || die deb-install "the root lacks ${missing[*]} that $deb depends on (the VM has no network): rerun with --refresh"
 
 # --- 5. boot it and run the checks -----------------------------------------------------------
 run=$cache/run-$suite-$debarch
-rm -rf "$run" && mkdir -p "$run/cpio/vmtest" "$run/cpio/etc/systemd/system/multi-user.target.wants"
-cp scripts/vm/guest-checks.sh "$run/cpio/vmtest/run"
-cp "$bc/build/$deb" "$bc/build/tools/gpiosim_check" "$rd/gpio-sim.ko" "$run/cpio/vmtest/"
-printf 'DEB=%s\nGPIO_KO=/vmtest/gpio-sim.ko\nGPIOSIM_CHECK=gpiosim_check\nRUN_S=30\n' "$deb" >"$run/cpio/vmtest/vm.env"
+rm -rf "$run" && mkdir -p "$run/cpio/vmtest" "$run/cpio/etc/systemd/system/multi-user.target.wants" "$run/artifacts"
+cp "$guest_script" "$run/cpio/vmtest/run"
+cp "$bc/build/$deb" "$bc/build/$emu_deb" "$bc/build/tools/gpiosim_check" "$rd/gpio-sim.ko" "$run/cpio/vmtest/"
+printf 'DEB=%s\nEMU_DEB=%s\nGPIO_KO=/vmtest/gpio-sim.ko\nGPIOSIM_CHECK=gpiosim_check\nRUN_S=30\n' "$deb" "$emu_deb" \
+  >"$run/cpio/vmtest/vm.env"
 cat >"$run/cpio/etc/systemd/system/vmtest.service" <<'EOF'
 [Unit]
 Description=gyrotc virtual board checks (scripts/vm-test.sh)
@@ -261,6 +285,7 @@ say "[5/5] booting $qemu ($(cat "$rd/kernel"), no KVM): console $run/console.log
   -kernel "$rd/vmlinuz" -initrd "$run/initrd.cpio" \
   -append "rdinit=/sbin/init console=$console systemd.getty_auto=0 systemd.show_status=0" \
   -device virtio-serial-pci -chardev file,id=results,path="$run/results.txt" -device virtconsole,chardev=results \
+  -virtfs local,path="$run/artifacts",mount_tag=artifacts,security_model=none,id=artifacts \
   -serial file:"$run/console.log" >"$run/qemu.log" 2>&1 &
 qemu_pid=$!
 trap 'kill $qemu_pid 2>/dev/null || true' EXIT
@@ -299,6 +324,6 @@ for check in "${plan[@]}"; do
     echo "FAIL $check: no result: $why; see $run/console.log"
   fi
 done
-say "done; load average $(cut -d' ' -f1-3 /proc/loadavg)"
+say "done; load average $(cut -d' ' -f1-3 /proc/loadavg); the guest's logs (journal, emulator events, records): $run/artifacts"
 echo "vm-test: $passed/${#plan[@]} passed ($arch, Debian $suite, $(cut -d' ' -f1 "$rd/kernel" | sed 's/linux-image-//'), $(((SECONDS - t0) / 60)) min $(((SECONDS - t0) % 60)) s)"
 [ "$passed" -eq "${#plan[@]}" ]

@@ -184,13 +184,14 @@ void parse_devices(const toml::table& table, const std::string& source, hal::Lin
     const toml::table* t = devices.subtable("adc");
     const Section s(t ? *t : kEmpty, "devices.adc", source,
                     {"spi", "drdy", "drdy_bias", "drdy_active_low", "fclk_hz", "vref_v", "spi_speed_hz",
-                     "latency_budget_s"});
+                     "latency_budget_s", "stamp_latency_max_s"});
     d.adc_spi = s.string("spi", d.adc_spi);
     d.adc_drdy = s.gpio("drdy", d.adc_drdy);
     d.adc.fclk_hz = s.number("fclk_hz", d.adc.fclk_hz, 1.0, 10e6);
     d.adc.vref_v = s.number("vref_v", d.adc.vref_v, 0.1, 5.0);
     d.adc.spi_speed_hz = static_cast<std::uint32_t>(s.number("spi_speed_hz", d.adc.spi_speed_hz, 1e3, 50e6));
     d.adc.latency_budget_s = s.number("latency_budget_s", d.adc.latency_budget_s, 0.0, 1.0);
+    d.adc.stamp_latency_max_s = s.number("stamp_latency_max_s", d.adc.stamp_latency_max_s, 0.0, 0.1);
     if (hal::Status ok = hal::Ads1251::validate(d.adc); !ok) {
       const toml::node* at = s.get("fclk_hz");
       throw InputError(source + ":" + std::to_string(at ? at->source().begin.line : table.source().begin.line) +
@@ -281,8 +282,8 @@ BoardConfig parse_board_config(const toml::table& root, const std::string& sourc
     const toml::table* t = table_of("sim");
     const Section s(t ? *t : kEmpty, "sim", source,
                     {"seed", "thermal_step_s", "initial_temp_c", "adc_wake_min_us", "adc_wake_max_us",
-                     "adc_stall_probability", "adc_stall_max_us", "adc_irq_delay_max_us", "adc_spi_start_max_us",
-                     "adc_spi_return_max_us"});
+                     "adc_stall_probability", "adc_stall_max_us", "adc_irq_delay_max_us", "adc_stamp_delay_max_us",
+                     "adc_spi_start_max_us", "adc_spi_return_max_us"});
     config.sim.seed = s.unsigned_integer("seed", config.sim.seed);
     config.sim.thermal_step_s = s.number("thermal_step_s", config.sim.thermal_step_s, 1e-4, 10.0);
     if (s.get("initial_temp_c") != nullptr) config.sim.initial_temp_c = s.number("initial_temp_c", 0.0, -55.0, 125.0);
@@ -295,6 +296,7 @@ BoardConfig parse_board_config(const toml::table& root, const std::string& sourc
     a.stall_probability = s.number("adc_stall_probability", a.stall_probability, 0.0, 1.0);
     a.stall_max_s = us("adc_stall_max_us", std::max(a.stall_max_s, a.wake_max_s), a.wake_max_s);
     a.irq_delay_max_s = us("adc_irq_delay_max_us", a.irq_delay_max_s, 0.0);
+    a.stamp_delay_max_s = us("adc_stamp_delay_max_us", a.stamp_delay_max_s, 0.0);
     a.spi_start_max_s = us("adc_spi_start_max_us", a.spi_start_max_s, 0.0);
     a.spi_return_max_s = us("adc_spi_return_max_us", a.spi_return_max_s, 0.0);
   }

@@ -43,6 +43,7 @@ void validate(const ControllerConfig& c) {
           "must be positive");
   require(std::isfinite(l.opa548_cooldown_s) && l.opa548_cooldown_s >= 0.0, "opa548_cooldown_s",
           "must be zero or positive");
+  require(std::isfinite(l.adc_stall_s) && l.adc_stall_s > 0.0, "adc_stall_s", "must be positive");
   require(l.recovery_readings >= 1, "recovery_readings", "must be at least 1");
   require(std::isfinite(l.min_valid_c) && std::isfinite(l.max_valid_c) &&
               l.min_valid_c < l.max_valid_c,
@@ -61,7 +62,26 @@ void Controller::set_flag(std::uint32_t flag, bool on) noexcept {
   flags_ = on ? (flags_ | flag) : (flags_ & ~flag);
 }
 
-SampleResult Controller::on_sample(const hal::AdcSample& sample, double /*now_s*/) noexcept {
+const char* flag_name(std::uint32_t flag) noexcept {
+  switch (flag) {
+    case kFlagTempStale: return "temp_stale";
+    case kFlagTempInvalid: return "temp_invalid";
+    case kFlagTempStuck: return "temp_stuck";
+    case kFlagOverTempLatched: return "over_temp_latched";
+    case kFlagOpa548Thermal: return "opa548_thermal";
+    case kFlagAdcInvalid: return "adc_invalid";
+    case kFlagModelClamped: return "model_clamped";
+    case kFlagTecSaturated: return "tec_saturated";
+    case kFlagTecOff: return "tec_off";
+    case kFlagAdcStalled: return "adc_stalled";
+    default: return "";
+  }
+}
+
+SampleResult Controller::on_sample(const hal::AdcSample& sample, double now_s) noexcept {
+  have_adc_time_ = true;
+  last_sample_s_ = now_s;
+  set_flag(kFlagAdcStalled, false);
   const fit::Compensator* compensator = compensator_.load(std::memory_order_acquire);
   // The modelled bias only changes with the casing reading (about once a
   // second) or the model: evaluate it then, and subtract it from every sample.
@@ -117,7 +137,9 @@ void Controller::on_temperature(const hal::TemperatureReading& reading, double n
   if (!have_casing_ || reading.temp_c != casing_c_) bias_cached_ = false;
   have_casing_ = true;
   casing_c_ = reading.temp_c;
-  casing_time_s_ = now_s;
+  // A reading is as old as its measurement (the conversion's start), not
+  // its hand-over: a conversion takes 750 ms, more behind the ambient's.
+  casing_time_s_ = std::isfinite(reading.time_s) ? std::min(reading.time_s, now_s) : now_s;
   if ((flags_ & kTempFaults) != 0) {
     const bool still_stuck = (flags_ & kFlagTempStuck) != 0 && reading.temp_c == stuck_value_c_;
     good_streak_ = still_stuck ? 0 : good_streak_ + 1;
@@ -182,6 +204,12 @@ TecCommand Controller::on_pid_tick(double now_s) noexcept {
     good_streak_ = 0;
   }
 
+  if (!have_adc_time_) {  // the stall is counted from the first tick when no sample came yet
+    have_adc_time_ = true;
+    last_sample_s_ = now_s;
+  }
+  if (now_s - last_sample_s_ > l.adc_stall_s) set_flag(kFlagAdcStalled, true);
+
   const bool new_reading = std::exchange(reading_since_tick_, false);
   // The identification programme gets no glitch hold: a period with a sensor
   // fault is a period at 0 A, and the record shows it.
@@ -189,6 +217,8 @@ TecCommand Controller::on_pid_tick(double now_s) noexcept {
   // A reading that went stale (invalid ones only, since the last valid one)
   // ends a hold: off, to restart where the PID was once readings are good.
   if ((flags_ & kFlagTempStale) != 0) return off(now_s, pid_.output());
+  // A dead ADC: off, to restart where the PID was once samples come again.
+  if ((flags_ & kFlagAdcStalled) != 0) return off(now_s, pid_.output());
   const std::uint32_t stop = kFlagTempStuck | kFlagOverTempLatched | kFlagOpa548Thermal;
   if ((flags_ & stop) != 0 || !config_.pid_enabled || program_finished()) return off(now_s, 0.0);
   if (program_ != nullptr) return program_tick(now_s);

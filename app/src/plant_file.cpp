@@ -50,6 +50,7 @@ const std::vector<Key>& keys() {
       {"gyro", "arw_deg_per_sqrt_h", &PlantParams::arw_deg_per_sqrt_h},
       {"gyro", "bias_instability_dps", &PlantParams::bias_instability_dps},
       {"gyro", "bias_instability_tau_s", &PlantParams::bias_instability_tau_s},
+      {"gyro", "zero_rate_offset_mv", &PlantParams::zero_rate_offset_mv},
       {"integration", "max_thermal_step_s", &PlantParams::max_thermal_step_s},
       {"integration", "initial_temp_c", &PlantParams::initial_temp_c},
   };

@@ -103,7 +103,7 @@ TuneResult tune_from_record(const TuneInput& input) {
   TuneResult r;
   auto start = std::chrono::steady_clock::now();
   try {
-    r.fit = tune::identify_thermal(input.record);
+    r.fit = tune::identify_thermal(input.record, input.experiment_scale);
   } catch (const std::invalid_argument& e) {
     throw InputError(input.source + ": " + e.what());
   }

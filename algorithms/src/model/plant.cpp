@@ -54,6 +54,7 @@ void validate(const PlantParams& p) {
           "opa548_restart_c", "must be below opa548_shutdown_c");
   require(std::isfinite(p.ds18b20_offset_c), "ds18b20_offset_c", "must be a number");
   require(positive(p.scale_mv_per_dps), "scale_mv_per_dps", "must be positive");
+  require(std::isfinite(p.zero_rate_offset_mv), "zero_rate_offset_mv", "must be a number");
   require(non_negative(p.arw_deg_per_sqrt_h), "arw_deg_per_sqrt_h", "must be zero or positive");
   require(non_negative(p.bias_instability_dps), "bias_instability_dps", "must be zero or positive");
   require(positive(p.bias_instability_tau_s), "bias_instability_tau_s", "must be positive");
@@ -190,7 +191,7 @@ void Plant::step_thermal(double h) noexcept {
 }
 
 void Plant::update_bias() noexcept {
-  bias_mv_ = table2_bias_mv(effects_.bias_temp_c()) + effects_.extra_bias_mv();
+  bias_mv_ = table2_bias_mv(effects_.bias_temp_c()) + params_.zero_rate_offset_mv + effects_.extra_bias_mv();
 }
 
 double Plant::gyro_mv(double sample_period_s) noexcept {

@@ -11,6 +11,19 @@ double ExperimentPlan::max_duration_s() const noexcept {
   return rest_s + approach_timeout_s + relay_s + prbs_s + coast_s + cool_s + reheat_timeout_s;
 }
 
+ExperimentPlan ExperimentPlan::scaled(double factor) const {
+  if (!(factor > 0.0 && factor <= 1.0)) {
+    throw std::invalid_argument("experiment time scale must be within (0, 1], got " + std::to_string(factor));
+  }
+  ExperimentPlan p = *this;
+  for (double* d : {&p.rest_s, &p.approach_timeout_s, &p.relay_s, &p.prbs_s, &p.prbs_bit_s, &p.coast_s, &p.cool_s,
+                    &p.reheat_timeout_s}) {
+    *d *= factor;
+  }
+  p.hold_ki_a_per_c_s /= factor;
+  return p;
+}
+
 void validate(const ExperimentPlan& p) {
   auto require = [](bool ok, const char* field, const char* what) {
     if (!ok) throw std::invalid_argument(std::string("experiment ") + field + " " + what);

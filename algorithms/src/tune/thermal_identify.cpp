@@ -67,7 +67,7 @@ double rail_parameter(double rail_a, double peltier, double joule) {
   return std::log(std::max(0.02, rail_a - kRailReferenceK * peltier / (2.0 * joule)));
 }
 
-void check_record(const TuneRecord& r) {
+void check_record(const TuneRecord& r, double experiment_scale) {
   const std::size_t n = r.time_s.size();
   if (r.sensor_c.size() != n || r.tec_a.size() != n || (!r.ambient_c.empty() && r.ambient_c.size() != n)) {
     throw std::invalid_argument("the record's columns have different lengths");
@@ -87,10 +87,15 @@ void check_record(const TuneRecord& r) {
     }
   }
   const double duration = r.time_s.back() - r.time_s.front();
-  if (duration < kMinDurationS) {
-    throw std::invalid_argument(fmt("the record lasts %.0f s; tune needs at least 30 min of the identification "
-                                    "experiment (`gyrotc record --experiment tune` takes about 2 h)",
-                                    duration));
+  if (duration < kMinDurationS * experiment_scale) {
+    if (experiment_scale == 1.0) {
+      throw std::invalid_argument(fmt("the record lasts %.0f s; tune needs at least 30 min of the identification "
+                                      "experiment (`gyrotc record --experiment tune` takes about 2 h)",
+                                      duration));
+    }
+    throw std::invalid_argument(fmt("the record lasts %.0f s; tune needs at least %.0f s of an identification "
+                                    "experiment scaled by %.3g (30 min x the scale)",
+                                    duration, kMinDurationS * experiment_scale, experiment_scale));
   }
   const auto [imin, imax] = std::minmax_element(r.tec_a.begin(), r.tec_a.end());
   if (*imax - *imin < kMinCurrentRangeA) {
@@ -228,8 +233,11 @@ std::vector<double> first_guess(const TuneRecord& r, const std::vector<double>& 
 
 }  // namespace
 
-ThermalFit identify_thermal(const TuneRecord& record) {
-  check_record(record);
+ThermalFit identify_thermal(const TuneRecord& record, double experiment_scale) {
+  if (!(experiment_scale > 0.0 && experiment_scale <= 1.0)) {
+    throw std::invalid_argument(fmt("experiment scale %.3g: must be within (0, 1]", experiment_scale));
+  }
+  check_record(record, experiment_scale);
   const std::size_t n = record.time_s.size();
 
   // The ambient column, if it has any reading: gaps (no reading yet) take the nearest one.

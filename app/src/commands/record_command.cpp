@@ -4,6 +4,7 @@
 
 #include "gyrotc/app/commands.hpp"
 #include "gyrotc/app/daemon/session.hpp"
+#include "gyrotc/app/errors.hpp"
 
 namespace gyrotc::app {
 
@@ -30,15 +31,24 @@ void add_record_command(CLI::App& app) {
   auto experiment = std::make_shared<std::string>();
   cmd->add_option("--experiment", *experiment,
                   "tune: run the identification experiment of `gyrotc tune` instead of the PID (rest, full\n"
-                  "current to the setpoint, relay, PRBS, coast, cooling, reheat; at most 2 h 37 min, every\n"
+                  "current to the setpoint, relay, PRBS, coast, cooling, reheat; at most 2 h 35 min, every\n"
                   "fail-safe on) and stop when it ends; then `gyrotc tune --data FILE.csv --out controller.toml`")
       ->check(CLI::IsMember({"tune"}));
+  cmd->add_option("--experiment-scale", options->experiment_scale,
+                  "--experiment tune on a unit faster than the reference (smaller heat capacities): every phase's\n"
+                  "length times this factor (0 < F <= 1; 0.1: at most 16 min). Slow parts of the model (the loss to\n"
+                  "the ambient, the shell) are then seen for less long: tune reports wider standard errors for them")
+      ->check(CLI::Range(0.001, 1.0))
+      ->capture_default_str();
   cmd->add_option("--controller", options->controller_file,
                   "a controller file (`gyrotc tune`'s) in place of the configuration's [control] gains");
   cmd->add_flag("--allow-non-rt", options->allow_non_rt,
                 "run without SCHED_FIFO / locked memory when not permitted (a warning)");
   cmd->add_option("--summary-json", options->summary_json, "write the run's summary here");
-  cmd->callback([options, pid, experiment] {
+  cmd->callback([options, pid, experiment, cmd] {
+    if (cmd->count("--experiment-scale") > 0 && *experiment != "tune") {
+      throw InputError("--experiment-scale: only with --experiment tune");
+    }
     options->pid = *pid == "on";
     options->tune_experiment = *experiment == "tune";
     run_session(*options);

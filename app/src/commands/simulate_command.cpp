@@ -35,6 +35,7 @@ namespace {
 struct SimulateOptions {
   std::string profile = "fig26";
   double ambient_c = 16.0;  // --profile tune: the room's temperature
+  double experiment_scale = 1.0;  // --profile tune: tune::ExperimentPlan::scaled
   std::string controller = "paper";
   std::string plant;
   std::string calibration;
@@ -248,7 +249,7 @@ void run(const SimulateOptions& o) {
   if (!o.plot.empty()) prepare_output_file(o.plot, "--plot");
   if (!o.rate_csv.empty()) prepare_output_file(o.rate_csv, "--rate-csv");
   const bool experiment = o.profile == "tune";
-  const tune::ExperimentPlan plan;
+  const tune::ExperimentPlan plan = tune::ExperimentPlan{}.scaled(o.experiment_scale);
   const model::ChamberProfile profile = experiment ? tune_experiment_room(o.ambient_c, plan)
                                                    : chamber_profile_by_name(o.profile, data_dir());
   SimulationSetup setup;
@@ -353,6 +354,11 @@ void add_simulate_command(CLI::App& app) {
   cmd->add_option("--ambient-c", options->ambient_c, "--profile tune: the room's (chamber's) constant temperature")
       ->check(CLI::Range(-40.0, 80.0))
       ->capture_default_str();
+  cmd->add_option("--experiment-scale", options->experiment_scale,
+                  "--profile tune on a plant faster than the reference: every phase's length times this factor "
+                  "(0 < F <= 1), as gyrotc record --experiment-scale")
+      ->check(CLI::Range(0.001, 1.0))
+      ->capture_default_str();
   cmd->add_option("--controller", options->controller,
                   "paper: the seed's integral-separated PID; tuned: ours (retuned gains, feed-forward "
                   "from the ambient sensor); off: TEC off, compensation only; or a controller file "
@@ -381,7 +387,12 @@ void add_simulate_command(CLI::App& app) {
   cmd->add_option("--rate-window", options->rate_window,
                   "START:END in seconds from the profile's start: the (steady) segment --rate-csv records");
   cmd->add_flag("--json", options->json, "print the summary as one JSON object");
-  cmd->callback([options] { run(*options); });
+  cmd->callback([options, cmd] {
+    if (cmd->count("--experiment-scale") > 0 && options->profile != "tune") {
+      throw InputError("--experiment-scale: only with --profile tune");
+    }
+    run(*options);
+  });
 }
 
 }  // namespace gyrotc::app

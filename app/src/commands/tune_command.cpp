@@ -24,6 +24,7 @@ struct TuneOptions {
   std::string out;
   std::string plot;
   std::optional<double> setpoint_c;
+  double experiment_scale = 1.0;
   bool json = false;
 };
 
@@ -107,6 +108,7 @@ void run(const TuneOptions& o) {
   if (!o.plot.empty()) prepare_output_file(o.plot, "--plot");
   TuneInput input = read_tune_record(o.data);
   if (o.setpoint_c) input.setpoint_c = *o.setpoint_c;
+  input.experiment_scale = o.experiment_scale;
   const TuneResult result = tune_from_record(input);
   save_controller_file(result.controller, o.out, tune_informational_toml(result, o.data));
   nlohmann::json j = tune_json(result);
@@ -139,6 +141,11 @@ void add_tune_command(CLI::App& app) {
   cmd->add_option("--out", options->out, "the controller file to write (TOML)")->required();
   cmd->add_option("--setpoint-c", options->setpoint_c,
                   "casing setpoint to design for (default: the record's setpoint_c, else 55 C)");
+  cmd->add_option("--experiment-scale", options->experiment_scale,
+                  "the record is an experiment shortened by this factor (record --experiment-scale): the shortest "
+                  "record accepted, 30 min, scales with it")
+      ->check(CLI::Range(0.001, 1.0))
+      ->capture_default_str();
   cmd->add_option("--plot", options->plot, "SVG plot: the record's reading against the model's, and the residual")
       ->check([](const std::string& p) {
         return p.size() >= 4 && p.compare(p.size() - 4, 4, ".svg") == 0 ? std::string() : "only .svg is supported";

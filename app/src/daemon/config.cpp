@@ -42,6 +42,7 @@ FailSafeLimits parse_failsafe(const TomlTable& t) {
   if (l.min_valid_c >= l.max_valid_c) t.fail_at("max_valid_c", "must be above failsafe.min_valid_c");
   l.over_temp_c = t.number("over_temp_c", l.over_temp_c, -55.0, 125.0);
   l.opa548_cooldown_s = t.number("opa548_cooldown_s", l.opa548_cooldown_s, 0.0, 86400.0);
+  l.adc_stall_s = t.number("adc_stall_s", l.adc_stall_s, 0.1, 3600.0);
   return l;
 }
 
@@ -56,7 +57,7 @@ DaemonConfig parse_daemon_config(const toml::table& root, const std::string& sou
 
   const TomlTable failsafe(toml_section(root, "failsafe", source), "failsafe", source,
                            {"stale_periods", "stuck_s", "stuck_min_drive_a", "stuck_span_a", "recovery_readings",
-                            "over_temp_c", "opa548_cooldown_s", "min_valid_c", "max_valid_c"});
+                            "over_temp_c", "opa548_cooldown_s", "adc_stall_s", "min_valid_c", "max_valid_c"});
   c.controller.limits = parse_failsafe(failsafe);
 
   const TomlTable control(toml_section(root, "control", source), "control", source,

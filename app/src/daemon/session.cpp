@@ -50,6 +50,49 @@ void format_row(const OutputRow& row, char* out, std::size_t size) {
 
 double us(double s) { return s * 1e6; }
 
+// The controller's fault flags as the journal tells them: each one raised
+// (a warning, what it means and what the controller does about it) and
+// cleared (a notice), at most one raise a flag every 30 s (a flapping one
+// would fill the journal), a clear only after a raise that was told.
+class FaultReporter {
+ public:
+  void update(std::uint32_t flags, double now_s) {
+    for (const Fault& f : kFaults) {
+      const bool on = (flags & f.flag) != 0;
+      const bool was = (told_ & f.flag) != 0;
+      if (on && !was && now_s >= quiet_until_s_[index(f.flag)]) {
+        GYROTC_LOG_WARNING("fault %s: %s", flag_name(f.flag), f.what);
+        told_ |= f.flag;
+        quiet_until_s_[index(f.flag)] = now_s + 30.0;
+      } else if (!on && was) {
+        GYROTC_LOG_NOTICE("fault %s cleared", flag_name(f.flag));
+        told_ &= ~f.flag;
+      }
+    }
+  }
+
+ private:
+  struct Fault {
+    std::uint32_t flag;
+    const char* what;
+  };
+  static constexpr Fault kFaults[] = {
+      {kFlagTempStale, "no valid casing reading for failsafe.stale_periods PID periods: TEC off"},
+      {kFlagTempInvalid, "invalid casing reading (empty, CRC, 85 C, range, resolution, missing): TEC current held"},
+      {kFlagTempStuck, "the casing reading does not change while the TEC drives: TEC off"},
+      {kFlagOverTempLatched, "casing above failsafe.over_temp_c: TEC off until restart"},
+      {kFlagOpa548Thermal, "OPA548 thermal shutdown (E/S low): TEC off for failsafe.opa548_cooldown_s"},
+      {kFlagAdcInvalid, "ADS1251 DRDY timeout or clipped sample: rate output invalid (DAC at mid-scale)"},
+      {kFlagAdcStalled, "no ADS1251 sample for failsafe.adc_stall_s (DRDY stopped or every read fails): TEC off "
+                        "until samples return"},
+      {kFlagModelClamped, "casing reading outside the calibration's range: compensated at its end"},
+  };
+  static std::size_t index(std::uint32_t flag) { return static_cast<std::size_t>(__builtin_ctz(flag)); }
+
+  std::uint32_t told_ = 0;
+  double quiet_until_s_[32] = {};
+};
+
 // Best effort on every path out: a second safe-off after the runner's is harmless.
 class SafeOffGuard {
  public:
@@ -104,7 +147,7 @@ void run_session(const SessionOptions& options) {
   const std::string calibration_text = describe(calibration);
   compensators.push_back(make_compensator(std::move(calibration)));
   Controller controller(config.controller, *compensators.back());
-  tune::IdentificationExperiment experiment;
+  tune::IdentificationExperiment experiment(tune::ExperimentPlan{}.scaled(options.experiment_scale));
   if (options.tune_experiment) controller.run_program(&experiment);
 
   // Output files before any device: a bad path fails without touching the board.
@@ -197,6 +240,7 @@ void run_session(const SessionOptions& options) {
   auto next_watchdog = started;
   std::uint64_t last_heartbeat = 0;
   int stop_signal = 0;
+  FaultReporter faults;
   while (!runner.finished() && !controller.program_finished()) {
     const DaemonSignals::Event event = signals.wait(0.1);
     if (event == DaemonSignals::Event::stop) {
@@ -222,6 +266,7 @@ void run_session(const SessionOptions& options) {
       compensators.erase(compensators.begin(), compensators.end() - 1);
     }
     const auto now = clock::now();
+    faults.update(runner.status().flags, std::chrono::duration<double>(now - started).count());
     if (watchdog_s > 0.0 && now >= next_watchdog) {
       // Only a loop that is still moving is healthy.
       const std::uint64_t beat = runner.heartbeat();

@@ -14,27 +14,29 @@ Ads1251::Ads1251(SpiBus& spi, GpioLine& drdy, Clock& clock, const Ads1251Config&
       config_(config),
       mv_per_code_(config.vref_v * 1000.0 / 8388608.0),
       period_s_(kClocksPerSample / config.fclk_hz),
-      window_s_(kDoutWindowClocks / config.fclk_hz),
+      window_s_(kDoutEndClocks / config.fclk_hz - config.stamp_latency_max_s),
       hold_off_s_(kHoldOffClocks / config.fclk_hz + kHoldOffExtraS),
       next_drdy_after_s_(kNextDrdyClocks / config.fclk_hz),
-      msb_tolerance_s_(kMsbToleranceClocks / config.fclk_hz),
+      msb_tolerance_s_(kMsbToleranceClocks / config.fclk_hz + config.stamp_latency_max_s),
       transfer_s_(24.0 / config.spi_speed_hz) {}
 
 Status Ads1251::validate(const Ads1251Config& config) noexcept {
   if (!(config.fclk_hz > 0.0) || !(config.vref_v > 0.0) || config.spi_speed_hz == 0 ||
-      !(config.latency_budget_s >= 0.0)) {
+      !(config.latency_budget_s >= 0.0) || !(config.stamp_latency_max_s >= 0.0)) {
     return Error::make(ErrorCode::invalid_config,
-                       "ADS1251: fclk_hz, vref_v, spi_speed_hz must be > 0 and latency_budget_s >= 0");
+                       "ADS1251: fclk_hz, vref_v, spi_speed_hz must be > 0 and latency_budget_s, "
+                       "stamp_latency_max_s >= 0");
   }
-  const double window_s = kDoutWindowClocks / config.fclk_hz;
+  // What the driver can count on from a stamp: DOUT mode's end less the stamp's lateness.
+  const double window_s = kDoutEndClocks / config.fclk_hz - config.stamp_latency_max_s;
   const double transfer_s = 24.0 / config.spi_speed_hz;
   if (config.latency_budget_s + transfer_s > window_s) {
     return Error::make(ErrorCode::invalid_config,
-                       "ADS1251: at fclk %.0f Hz the DOUT window is %.1f us, shorter than the latency "
-                       "budget %.1f us + 24 bits at %u Hz (%.1f us): reads would mix two conversions; "
-                       "lower the ADC clock or raise the SPI speed",
-                       config.fclk_hz, window_s * 1e6, config.latency_budget_s * 1e6,
-                       config.spi_speed_hz, transfer_s * 1e6);
+                       "ADS1251: at fclk %.0f Hz the DOUT window is %.1f us from a stamp up to %.1f us late, "
+                       "shorter than the latency budget %.1f us + 24 bits at %u Hz (%.1f us): reads would mix two "
+                       "conversions; lower the ADC clock or raise the SPI speed",
+                       config.fclk_hz, window_s * 1e6, config.stamp_latency_max_s * 1e6,
+                       config.latency_budget_s * 1e6, config.spi_speed_hz, transfer_s * 1e6);
   }
   return {};
 }
@@ -57,7 +59,9 @@ Result<AdcSample> Ads1251::do_read(double timeout_s) noexcept {
     if (!edge) return edge.error();
     const double edge_s = *edge;
     const double since_s = have_edge_ ? edge_s - last_edge_s_ : std::numeric_limits<double>::infinity();
-    const bool during_transfer = edge_s <= last_transfer_end_s_;
+    // An edge stamped up to stamp_latency_max_s after our last transfer may
+    // have fallen during it.
+    const bool during_transfer = edge_s - config_.stamp_latency_max_s <= last_transfer_end_s_;
     if (since_s < 0.5 * period_s_) {
       // The MSB 12 tCLK after the DRDY edge and our read's data bits are
       // the pin's own; anything else there is noise on the line.

@@ -47,16 +47,23 @@ gpiod_chip* open_chip(const std::string& chip) noexcept {
   unsigned number = 0;
   const std::string path = parse_unsigned(chip, number) ? "/dev/gpiochip" + chip : "/dev/" + chip;
   if (gpiod_is_gpiochip_device(path.c_str())) return gpiod_chip_open(path.c_str());
-  // A label ("pinctrl-bcm2711"): the chip under /dev that carries it.
+  // A label ("pinctrl-bcm2711"): the chip under /dev that carries it. A chip
+  // that cannot be opened might be it: not found then reports why it could
+  // not be opened (EACCES: udev has not given the node to the group yet), as
+  // libgpiod 1.6's lookup does.
   DIR* dev = opendir("/dev");
   if (dev == nullptr) return nullptr;
   gpiod_chip* found = nullptr;
+  int unopened_errno = 0;
   while (const dirent* entry = readdir(dev)) {
     if (std::strncmp(entry->d_name, "gpiochip", 8) != 0) continue;
     const std::string candidate = std::string("/dev/") + entry->d_name;
     if (!gpiod_is_gpiochip_device(candidate.c_str())) continue;
     gpiod_chip* c = gpiod_chip_open(candidate.c_str());
-    if (c == nullptr) continue;
+    if (c == nullptr) {
+      unopened_errno = errno;
+      continue;
+    }
     gpiod_chip_info* info = gpiod_chip_get_info(c);
     const bool match = info != nullptr && chip == gpiod_chip_info_get_label(info);
     if (info != nullptr) gpiod_chip_info_free(info);
@@ -67,7 +74,7 @@ gpiod_chip* open_chip(const std::string& chip) noexcept {
     gpiod_chip_close(c);
   }
   closedir(dev);
-  if (found == nullptr) errno = ENOENT;
+  if (found == nullptr) errno = unopened_errno != 0 ? unopened_errno : ENOENT;
   return found;
 }
 

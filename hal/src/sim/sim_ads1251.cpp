@@ -39,6 +39,7 @@ SimAds1251::SimAds1251(Input& input, Clock& clock, const Config& config) noexcep
   t_s_ = clock.now_s();
   last_visible_s_ = t_s_;
   cycle_ = static_cast<std::int64_t>(std::floor(t_s_ / period_s_));
+  edge_s_ = static_cast<double>(cycle_) * period_s_;
   enter(Segment::drdy_high);
   history_index_.fill(-1);
 }
@@ -56,7 +57,8 @@ SimAds1251::Counters SimAds1251::counters() const noexcept {
           .reads = reads_.load(std::memory_order_relaxed),
           .clean_reads = clean_reads_.load(std::memory_order_relaxed),
           .corrupted_reads = corrupted_reads_.load(std::memory_order_relaxed),
-          .dropped_events = dropped_events_.load(std::memory_order_relaxed)};
+          .dropped_events = dropped_events_.load(std::memory_order_relaxed),
+          .late_edges = late_edges_.load(std::memory_order_relaxed)};
 }
 
 double SimAds1251::uniform(double lo, double hi) noexcept {
@@ -76,12 +78,16 @@ double SimAds1251::wake_latency_s() noexcept {
 
 void SimAds1251::enter(Segment segment) noexcept {
   segment_ = segment;
-  const double edge_s = static_cast<double>(cycle_) * period_s_;
   switch (segment) {
-    case Segment::pulse_low: boundary_s_ = edge_s + kPulseLowClocks * tclk_s_; return;
-    case Segment::pulse_high: boundary_s_ = edge_s + kDoutStartClocks * tclk_s_; return;
-    case Segment::dout: boundary_s_ = edge_s + kDoutEndClocks * tclk_s_; return;
-    case Segment::drdy_high: boundary_s_ = static_cast<double>(cycle_ + 1) * period_s_; return;
+    case Segment::pulse_low: boundary_s_ = edge_s_ + kPulseLowClocks * tclk_s_; return;
+    case Segment::pulse_high: boundary_s_ = edge_s_ + kDoutStartClocks * tclk_s_; return;
+    case Segment::dout: boundary_s_ = edge_s_ + kDoutEndClocks * tclk_s_; return;
+    case Segment::drdy_high:
+      boundary_s_ = static_cast<double>(cycle_ + 1) * period_s_;
+      // After a late (anchored) edge the conversions keep their period from
+      // it: the emulated clock's phase slips, as no conversion is dropped.
+      if (config_.pin_listener != nullptr) boundary_s_ = std::max(boundary_s_, edge_s_ + period_s_);
+      return;
   }
 }
 
@@ -89,8 +95,7 @@ bool SimAds1251::dout_bit() const noexcept {
   return pointer_ < kFrameBits && ((frame_ >> (kFrameBits - 1 - pointer_)) & 1u) != 0;
 }
 
-void SimAds1251::cross_boundary() noexcept {
-  const double t = boundary_s_;
+void SimAds1251::cross_boundary(double t) noexcept {
   switch (segment_) {
     case Segment::pulse_low:
       enter(Segment::pulse_high);
@@ -108,6 +113,8 @@ void SimAds1251::cross_boundary() noexcept {
       // The DRDY edge: conversion k is in the output register, the shift
       // pointer is back at its MSB.
       ++cycle_;
+      if (t - boundary_s_ > kPulseLowClocks * tclk_s_) bump(late_edges_);  // written later than its pulse lasts
+      edge_s_ = t;
       const std::int32_t code = code_for_mv(input_.input_mv(t));
       frame_ = static_cast<std::uint32_t>(code) & 0xFFFFFFu;
       pointer_ = 0;
@@ -129,11 +136,19 @@ void SimAds1251::advance_to(double t_s) noexcept {
     const double boundary_s = boundary_s_;
     if (glitch_s_ <= t_s && glitch_s_ <= boundary_s) {
       // A spike too short to change the level the state machine sees.
-      label_visible(glitch_s_);
-      queue_edge(glitch_s_, true, uniform(0.0, config_.timing.irq_delay_max_s));
+      if (config_.pin_listener != nullptr) {
+        config_.pin_listener->on_pin_level(false, glitch_s_);
+        config_.pin_listener->on_pin_level(level_, glitch_s_);
+      } else {
+        label_visible(glitch_s_);
+        queue_edge(glitch_s_, true, uniform(0.0, config_.timing.irq_delay_max_s));
+      }
       glitch_s_ = std::numeric_limits<double>::infinity();
     } else if (boundary_s <= t_s) {
-      cross_boundary();
+      // An emulated pin moves when its thread runs, possibly late: the
+      // conversion's edge is when the pin really falls.
+      const bool anchored = config_.pin_listener != nullptr && segment_ == Segment::drdy_high;
+      cross_boundary(anchored ? t_s : boundary_s);
     } else {
       break;
     }
@@ -158,6 +173,11 @@ void SimAds1251::label_visible(double t_s) noexcept {
 void SimAds1251::set_level(bool level, double t_s) noexcept {
   if (stall_.load(std::memory_order_relaxed)) level = true;  // a stalled DRDY never falls
   if (level == level_) return;
+  if (config_.pin_listener != nullptr) {  // the kernel queues the edges of a real line
+    level_ = level;
+    config_.pin_listener->on_pin_level(level, t_s);
+    return;
+  }
   if (config_.request == EdgeRequest::both_v1) label_visible(t_s);  // readable before this edge: the old level
   level_ = level;
   queue_edge(t_s, !level, uniform(0.0, config_.timing.irq_delay_max_s));
@@ -166,8 +186,8 @@ void SimAds1251::set_level(bool level, double t_s) noexcept {
 void SimAds1251::queue_edge(double t_s, bool falling, double irq_delay_s) noexcept {
   if (config_.request == EdgeRequest::falling && !falling) return;  // rising edges are not requested
   Event e;
-  e.stamp_s = t_s;
-  e.visible_s = std::max(t_s + irq_delay_s, last_visible_s_);
+  e.stamp_s = t_s + uniform(0.0, config_.timing.stamp_delay_max_s);
+  e.visible_s = std::max({t_s + irq_delay_s, e.stamp_s, last_visible_s_});
   last_visible_s_ = e.visible_s;
   e.falling = falling;
   e.labelled = config_.request == EdgeRequest::falling;
@@ -182,6 +202,11 @@ void SimAds1251::queue_edge(double t_s, bool falling, double irq_delay_s) noexce
 void SimAds1251::shift(double t_s) noexcept {
   if (pointer_ <= kFrameBits) ++pointer_;  // past the 24th bit the pin stays LOW
   if (segment_ == Segment::dout) set_level(dout_bit(), t_s);
+}
+
+double SimAds1251::run_pin() noexcept {
+  advance_to(clock_.now_s());
+  return boundary_s_;
 }
 
 // --- the DRDY line -------------------------------------------------------------
@@ -243,10 +268,14 @@ Result<double> SimAds1251::wait(Edge edge, double timeout_s) noexcept {
 // --- the SPI bus ---------------------------------------------------------------
 
 Status SimAds1251::Bus::do_configure(const SpiConfig& config) noexcept {
-  if (config.mode != 0 || config.bits_per_word != 8 || config.speed_hz == 0) {
+  // Any mode is accepted, as by the part: a wrong one shows in the data.
+  // Words other than 8 bits are the controller's business (spidev packs
+  // them into bytes on the wire).
+  if (config.mode > 3 || config.bits_per_word != 8 || config.speed_hz == 0) {
     return Error::make(ErrorCode::invalid_config,
-                       "sim:ads1251: SPI mode %u, %u bits per word; the ADS1251 is read in mode 0, 8 bits",
-                       config.mode, config.bits_per_word);
+                       "sim:ads1251: SPI mode %u, %u bits per word, %u Hz: the bus needs mode 0..3, 8-bit "
+                       "bytes on the wire and a clock",
+                       config.mode, config.bits_per_word, config.speed_hz);
   }
   chip_.spi_mode_ = config.mode;
   chip_.bit_s_ = 1.0 / config.speed_hz;
@@ -261,18 +290,21 @@ Status SimAds1251::transfer(std::span<const std::uint8_t> tx, std::span<std::uin
   if (spi_error_.load(std::memory_order_relaxed)) {
     return Error::make(ErrorCode::io, "sim:ads1251: SPI transfer failed (injected fault)");
   }
-  if (spi_mode_ != 0) return Error::make(ErrorCode::invalid_config, "sim:ads1251: SPI not configured");
+  if (spi_mode_ > 3) return Error::make(ErrorCode::invalid_config, "sim:ads1251: SPI not configured");
   if (tx.size() != rx.size()) return Error::make(ErrorCode::invalid_config, "sim:ads1251: tx/rx sizes differ");
   const double start_s = clock_.now_s() + uniform(0.0, config_.timing.spi_start_max_s);
   advance_to(start_s);
   const std::int64_t cycle = cycle_;
-  // Clean: from the MSB of one conversion, every bit sampled inside its DOUT mode.
-  bool clean = rx.size() * 8 == kFrameBits && segment_ == Segment::dout && pointer_ == 0;
+  last_transfer_.start_s = start_s;
+  last_transfer_.edge_s = edge_s_;
+  // Clean: in mode 0, from the MSB of one conversion, every bit sampled inside its DOUT mode.
+  const bool sample_after_shift = spi_mode_ != 0;
+  bool clean = !sample_after_shift && rx.size() * 8 == kFrameBits && segment_ == Segment::dout && pointer_ == 0;
   const double end_s = start_s + static_cast<double>(rx.size() * 8) * bit_s_;  // the last falling SCLK edge
   // Mode 0: each bit is sampled on the rising SCLK edge, shifted on the falling one.
   const int bits = static_cast<int>(rx.size()) * 8;
   if (bits < 64 && boundary_s_ > end_s && glitch_s_ > end_s && config_.request == EdgeRequest::falling &&
-      !stall_.load(std::memory_order_relaxed)) {
+      !stall_.load(std::memory_order_relaxed) && !sample_after_shift && config_.pin_listener == nullptr) {
     // The usual read: the pin's segment holds for the whole transfer, so
     // only the shifts move it (in DOUT mode), and the IRQ thread that queues
     // the burst of data edges wakes once for it. The levels the pin shows,
@@ -303,10 +335,16 @@ Status SimAds1251::transfer(std::span<const std::uint8_t> tx, std::span<std::uin
     for (std::uint8_t& byte : rx) {
       byte = 0;
       for (int b = 0; b < 8; ++b, ++bit) {
+        const double falling_s = start_s + static_cast<double>(bit + 1) * bit_s_;
+        if (sample_after_shift) {
+          advance_to(falling_s);
+          shift(falling_s);
+          byte = static_cast<std::uint8_t>(byte << 1 | (level_ ? 1 : 0));
+          continue;
+        }
         advance_to(start_s + (static_cast<double>(bit) + 0.5) * bit_s_);
         clean = clean && segment_ == Segment::dout && cycle_ == cycle;
         byte = static_cast<std::uint8_t>(byte << 1 | (level_ ? 1 : 0));
-        const double falling_s = start_s + static_cast<double>(bit + 1) * bit_s_;
         advance_to(falling_s);
         shift(falling_s);
       }
@@ -314,6 +352,7 @@ Status SimAds1251::transfer(std::span<const std::uint8_t> tx, std::span<std::uin
   }
   bump(reads_);
   bump(clean ? clean_reads_ : corrupted_reads_);
+  last_transfer_.clean = clean;
   clock_.sleep_until(end_s + uniform(0.0, config_.timing.spi_return_max_s));
   return {};
 }

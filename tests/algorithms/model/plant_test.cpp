@@ -288,3 +288,16 @@ TEST_CASE("the OPA548 shuts down when its junction overheats and restarts after 
   run(plant, 300.0);
   CHECK_FALSE(plant.opa548_thermal_shutdown());
 }
+
+TEST_CASE("a unit's zero-rate offset adds to the seed part's bias at every temperature") {
+  PlantParams seed_part = coarse();
+  seed_part.bias_instability_dps = 0.0;
+  PlantParams unit = seed_part;
+  unit.zero_rate_offset_mv = 1.5;
+  Plant a(seed_part, 1), b(unit, 1);
+  for (Plant* p : {&a, &b}) {
+    p->set_ambient_c(40.0);
+    run(*p, 600.0);
+  }
+  CHECK(b.gyro_bias_mv() - a.gyro_bias_mv() == Approx(1.5));
+}

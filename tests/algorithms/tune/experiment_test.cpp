@@ -142,3 +142,26 @@ TEST_CASE("an experiment plan that cannot work is rejected naming the field") {
   plan.relay_fraction = 1.5;
   CHECK_THROWS_WITH(IdentificationExperiment(plan), Catch::Contains("relay_fraction"));
 }
+
+TEST_CASE("a scaled experiment runs every phase in its fraction of the time, with a hold as much faster") {
+  const tune::ExperimentPlan full;
+  const tune::ExperimentPlan tenth = full.scaled(0.1);
+  CHECK(tenth.max_duration_s() == Approx(0.1 * full.max_duration_s()));
+  CHECK(tenth.prbs_bit_s == Approx(0.1 * full.prbs_bit_s));
+  CHECK(tenth.hold_ki_a_per_c_s == Approx(10.0 * full.hold_ki_a_per_c_s));
+  CHECK(tenth.hold_kp_a_per_c == full.hold_kp_a_per_c);
+  CHECK(tenth.relay_fraction == full.relay_fraction);
+  CHECK_THROWS_AS(full.scaled(0.0), std::invalid_argument);
+  CHECK_THROWS_AS(full.scaled(1.5), std::invalid_argument);
+}
+
+TEST_CASE("a scaled experiment on a casing that many times faster passes through the same phases") {
+  IdentificationExperiment e(tune::ExperimentPlan{}.scaled(0.1));
+  const std::vector<Step> steps = run(e, 25.0, -1.0, 1.0, 0.5);  // the TEC's heat on a tenth of the capacity
+  REQUIRE_FALSE(steps.empty());
+  CHECK(phases_in_order(steps) ==
+        std::vector<ExperimentPhase>{ExperimentPhase::rest, ExperimentPhase::approach, ExperimentPhase::relay,
+                                     ExperimentPhase::prbs, ExperimentPhase::coast, ExperimentPhase::cool,
+                                     ExperimentPhase::reheat});
+  CHECK(steps.back().time_s <= tune::ExperimentPlan{}.scaled(0.1).max_duration_s());
+}

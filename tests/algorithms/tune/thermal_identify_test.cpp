@@ -332,6 +332,23 @@ TEST_CASE("a record shorter than 30 min is refused, saying how long it is and wh
   CHECK(why.find("at least 30 min") != std::string::npos);
 }
 
+TEST_CASE("the shortest record accepted scales with the experiment's time scale") {
+  std::string why;
+  try {
+    (void)tune::identify_thermal(ramp_record(150), 0.1);
+  } catch (const std::invalid_argument& e) {
+    why = e.what();
+  }
+  CHECK(why.find("at least 180 s") != std::string::npos);
+  try {
+    (void)tune::identify_thermal(ramp_record(600), 0.1);  // long enough at this scale: what follows is checked
+    why.clear();
+  } catch (const std::invalid_argument& e) {
+    why = e.what();
+  }
+  CHECK(why.find("lasts") == std::string::npos);
+}
+
 TEST_CASE("a record whose current never changes is refused as without excitation") {
   TuneRecord r = ramp_record(4000);
   std::fill(r.tec_a.begin(), r.tec_a.end(), 0.3);

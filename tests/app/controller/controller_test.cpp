@@ -1,4 +1,5 @@
 #include <cmath>
+#include <string>
 
 #include "gyrotc/algorithms/fit/compensator.hpp"
 #include "gyrotc/app/controller.hpp"
@@ -16,14 +17,22 @@ namespace {
 TemperatureReading good(double temp_c, double t_s) { return {temp_c, t_s, true, TempFault::none}; }
 TemperatureReading bad(double t_s, TempFault fault) { return {0.0, t_s, false, fault}; }
 
-// A controller fed a reading every second and ticked every 2 s, as the
-// runners do. The reading alternates between two values one DS18B20 step
-// apart unless a fixed value is given.
+// An ADC sample at the zero-rate output (the runners deliver hundreds a second).
+AdcSample sample() {
+  AdcSample s;
+  s.gyro_mv = 80.0;
+  return s;
+}
+
+// A controller fed a reading and an ADC sample every second and ticked every
+// 2 s, as the runners do. The reading alternates between two values one
+// DS18B20 step apart unless a fixed value is given.
 struct Harness {
   Compensator compensator{BiasModel::paper_reference()};
   ControllerConfig config;
   Controller controller;
   double now_s = 0.0;
+  bool adc = true;  // false: no ADC sample (a dead converter)
 
   explicit Harness(ControllerConfig c = {}) : config(c), controller(c, compensator) {}
 
@@ -32,6 +41,7 @@ struct Harness {
     const double end = now_s + seconds;
     while (now_s < end - 1e-9) {
       now_s += 1.0;
+      if (adc) (void)controller.on_sample(sample(), now_s);
       const double value = jitter && (static_cast<long>(now_s) % 2 == 0) ? temp_c + 0.0625 : temp_c;
       if (deliver) controller.on_temperature(good(value, now_s - 0.75), now_s);
       if (static_cast<long>(now_s) % 2 == 0) last = controller.on_pid_tick(now_s);
@@ -85,6 +95,7 @@ struct PeriodHarness {
   double now_s = 0.0;
   TecCommand period(const TemperatureReading& reading) {
     now_s += 2.0;
+    (void)controller.on_sample(sample(), now_s);
     controller.on_temperature(reading, now_s);
     return controller.on_pid_tick(now_s);
   }
@@ -114,8 +125,10 @@ TEST_CASE("invalid readings hold the TEC until the stale limit, then turn it off
   PeriodHarness h;
   for (int i = 0; i < 10; ++i) h.good_period(54.0);
   const double held_a = h.controller.last_command().current_a;
-  // 3 PID periods of stale_periods: the 3rd invalid period is still within.
-  for (int i = 0; i < 3; ++i) {
+  // stale_periods (3 x 2 s) from the last good reading's measurement, 0.75 s
+  // before its period: the 2nd invalid period (4.75 s on) is still within,
+  // the 3rd (6.75 s) is not.
+  for (int i = 0; i < 2; ++i) {
     const TecCommand cmd = h.period(bad(h.now_s + 1.25, i == 0 ? TempFault::power_on_value : TempFault::crc));
     CHECK(cmd.enable);
     CHECK(cmd.current_a == held_a);
@@ -151,6 +164,7 @@ TEST_CASE("with invalid readings between valid ones the PID keeps regulating on 
     h.now_s += 1.0;
     h.controller.on_temperature(bad(h.now_s, TempFault::crc), h.now_s);  // every other reading: a flaky bus
     h.now_s += 1.0;
+    (void)h.controller.on_sample(sample(), h.now_s);
     h.controller.on_temperature(good(50.0, h.now_s - 0.75), h.now_s);
     (void)h.controller.on_pid_tick(h.now_s);
   }
@@ -241,6 +255,58 @@ TEST_CASE("an ADC timeout flags the rate output invalid until the next good samp
   r = h.controller.on_sample(fine, h.now_s);
   CHECK(r.valid);
   CHECK((r.flags & kFlagAdcInvalid) == 0);
+}
+
+TEST_CASE("a reading is stale stale_periods after it was measured, not after it was handed over") {
+  Harness h;
+  h.run_for(10.0, 50.0);  // now 10 s, the last reading measured at 9.25 s
+  // The last reading before the sensor goes: measured at 9.9 s, delivered at
+  // 10.8 s (a conversion), then nothing.
+  h.controller.on_temperature(good(50.0, 9.9), 10.8);
+  CHECK(h.controller.on_pid_tick(12.0).enable);
+  CHECK(h.controller.on_pid_tick(14.0).enable);
+  // 6 s (stale_periods x period) after 9.9 s: off at the tick at 16 s, not 18 s.
+  const TecCommand cmd = h.controller.on_pid_tick(16.0);
+  CHECK_FALSE(cmd.enable);
+  CHECK((cmd.flags & kFlagTempStale) != 0);
+}
+
+TEST_CASE("no ADC sample for adc_stall_s turns the TEC off, flagged, and the PID resumes where it was") {
+  Harness h;
+  h.run_for(20.0, 50.0);
+  const TecCommand before = h.controller.last_command();
+  REQUIRE(before.enable);
+  h.adc = false;  // DRDY stopped: the runners only see timeouts now
+  TecCommand cmd = h.run_for(h.config.limits.adc_stall_s - 2.0, 50.0);
+  CHECK(cmd.enable);  // not yet: a few timeouts are no dead converter
+  cmd = h.run_for(4.0, 50.0);
+  CHECK_FALSE(cmd.enable);
+  CHECK((cmd.flags & (kFlagAdcStalled | kFlagTecOff)) == (kFlagAdcStalled | kFlagTecOff));
+  h.adc = true;
+  cmd = h.run_for(2.0, 50.0);
+  CHECK(cmd.enable);
+  CHECK((cmd.flags & kFlagAdcStalled) == 0);
+  CHECK(cmd.current_a == Approx(before.current_a).margin(0.1));  // bumpless: no restart from 0 A
+}
+
+TEST_CASE("an ADC that never delivers turns the TEC off adc_stall_s after the first tick") {
+  Harness h;
+  h.adc = false;
+  TecCommand cmd = h.run_for(4.0, 40.0);
+  CHECK(cmd.enable);
+  cmd = h.run_for(h.config.limits.adc_stall_s, 40.0);
+  CHECK_FALSE(cmd.enable);
+  CHECK((cmd.flags & kFlagAdcStalled) != 0);
+}
+
+TEST_CASE("every fault flag has a name for the journal, and a bit that is no flag has none") {
+  for (const std::uint32_t f : {kFlagTempStale, kFlagTempInvalid, kFlagTempStuck, kFlagOverTempLatched,
+                                kFlagOpa548Thermal, kFlagAdcInvalid, kFlagModelClamped, kFlagTecSaturated, kFlagTecOff,
+                                kFlagAdcStalled}) {
+    CHECK(std::string(flag_name(f)).size() > 3);
+  }
+  CHECK(std::string(flag_name(1u << 20)).empty());
+  CHECK(std::string(flag_name(kFlagAdcStalled)) == "adc_stalled");
 }
 
 TEST_CASE("the runners' sample tick drives the rate DAC and averages only valid samples into the row") {

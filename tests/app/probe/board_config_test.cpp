@@ -151,7 +151,7 @@ TEST_CASE("a value of the wrong type or out of range names key and line") {
 
 TEST_CASE("an ADC clock that cannot be read in time is refused at load, saying why") {
   const std::string e = error_of("hal = \"linux\"\n[devices.adc]\nfclk_hz = 7680000\n");
-  CHECK(e.find("board.toml:3: devices.adc: ADS1251: at fclk 7680000 Hz the DOUT window is 45.3 us") == 0);
+  CHECK(e.find("board.toml:3: devices.adc: ADS1251: at fclk 7680000 Hz the DOUT window is 16.9 us") == 0);
 }
 
 TEST_CASE("a sim board is built with the configured TEC stage and start temperature") {

@@ -1,5 +1,6 @@
 #include "gyrotc/hal/chips/ad5060.hpp"
 
+#include <array>
 #include <cmath>
 
 #include "gyrotc/hal/sim/sim_ad5060.hpp"
@@ -58,9 +59,25 @@ TEST_CASE("the simulator ignores a frame that is not 24 bits long") {
   CHECK(chip.code() == 0);
 }
 
-TEST_CASE("the AD5060 is written in SPI mode 1 only") {
+TEST_CASE("the simulated AD5060 written in SPI mode 0 latches every bit one late: the frame shifted left") {
   SimAd5060 chip{"sim:ad5060", 2.5};
-  CHECK_FALSE(chip.configure({.mode = 0, .speed_hz = 1'000'000, .bits_per_word = 8}).ok());
+  REQUIRE(chip.configure({.mode = 0, .speed_hz = 1'000'000, .bits_per_word = 8}).ok());
+  const std::array<std::uint8_t, 3> tx{0x00, 0x12, 0x34}, rx_init{};
+  std::array<std::uint8_t, 3> rx = rx_init;
+  REQUIRE(chip.transfer(tx, rx).ok());
+  CHECK(chip.code() == 0x2468);
   Ad5060 dac{chip, {}};
-  CHECK(dac.init().ok());
+  CHECK(dac.init().ok());  // the driver's own mode 1 then latches right
+  REQUIRE(chip.transfer(tx, rx).ok());
+  CHECK(chip.code() == 0x1234);
+}
+
+TEST_CASE("the simulated AD5060 ignores a frame clocked above its 30 MHz") {
+  SimAd5060 chip{"sim:ad5060", 2.5};
+  REQUIRE(chip.configure({.mode = 1, .speed_hz = 40'000'000, .bits_per_word = 8}).ok());
+  const std::array<std::uint8_t, 3> tx{0x00, 0x12, 0x34};
+  std::array<std::uint8_t, 3> rx{};
+  REQUIRE(chip.transfer(tx, rx).ok());
+  CHECK(chip.ignored_frames() == 1);
+  CHECK(chip.code() == 0);
 }

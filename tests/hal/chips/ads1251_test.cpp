@@ -144,19 +144,20 @@ TEST_CASE("an SPI failure is reported as an i/o error") {
 }
 
 TEST_CASE("an ADC clock whose DOUT window is shorter than the latency budget is refused, saying why") {
-  // 7.68 MHz (the datasheet's 20 kSPS): window 348/7.68 MHz = 45 us.
+  // 7.68 MHz (the datasheet's 20 kSPS): DOUT mode ends 360/7.68 MHz = 46.9 us after the
+  // edge, 16.9 us after a stamp that may be 30 us late.
   const Status fast = Ads1251::validate({.fclk_hz = 7'680'000.0, .vref_v = 2.5, .spi_speed_hz = 1'000'000,
                                          .latency_budget_s = 300e-6});
   REQUIRE_FALSE(fast.ok());
   CHECK(fast.error().code() == ErrorCode::invalid_config);
   const std::string message(fast.error().message());
-  CHECK(message.find("DOUT window is 45.3 us") != std::string::npos);
+  CHECK(message.find("DOUT window is 16.9 us from a stamp up to 30.0 us late") != std::string::npos);
   CHECK(message.find("latency budget 300.0 us") != std::string::npos);
-  CHECK(Ads1251::validate(Ads1251Config{}).ok());  // 384 kHz: 906 us window
+  CHECK(Ads1251::validate(Ads1251Config{}).ok());  // 384 kHz: 937.5 - 30 = 907.5 us window
 }
 
 TEST_CASE("the SPI transfer time counts against the DOUT window") {
-  // 906 us window, 300 us budget: 24 bits at 30 kHz take 800 us.
+  // 907.5 us window, 300 us budget: 24 bits at 30 kHz take 800 us.
   CHECK_FALSE(Ads1251::validate({.fclk_hz = 384'000.0, .vref_v = 2.5, .spi_speed_hz = 30'000,
                                  .latency_budget_s = 300e-6})
                   .ok());
@@ -233,7 +234,7 @@ TEST_CASE("with random wake-up latency and stalls every sample returned is the c
 TEST_CASE("a conversion too late to be read whole is skipped and counted missed; the next one is read") {
   WavyRig rig({});
   REQUIRE(rig.adc.read(0.01).ok());
-  rig.clock.sleep_until(2.0 * kPeriodS + 895e-6);  // 895 + 24 us of transfer: past the 906 us window
+  rig.clock.sleep_until(2.0 * kPeriodS + 895e-6);  // 895 + 24 us of transfer: past the 907.5 us window
   const auto sample = rig.adc.read(0.01);
   REQUIRE(sample.ok());
   CHECK(sample->time_s == Approx(3.0 * kPeriodS));

@@ -45,6 +45,7 @@ struct FakeGpiochip {
   std::string name = "gpiochip7";
   std::string label = "fake-pinctrl";
   int open_handles = 0;
+  int open_errno = 0;  // opening the chip fails with this (EACCES: a node the process may not open)
   std::vector<FakeLine> lines;
 
   FakeGpiochip();

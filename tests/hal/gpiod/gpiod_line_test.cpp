@@ -1,6 +1,7 @@
 // GpiodLine, the libgpiod back-end of GpioLine, against a fake chip behind
 // the libgpiod calls (fake_gpiochip.hpp): the same specification for the
 // 1.6 and the 2.x API, whichever this build uses.
+#include <cerrno>
 #include "gyrotc/hal/linux/gpiod_line.hpp"
 
 #include <cstdint>
@@ -171,6 +172,14 @@ TEST_CASE("a chip is found by its name, path, number or label") {
     REQUIRE(es.ok());
     CHECK(rig.chip.lines[kEs].requested);
   }
+}
+
+TEST_CASE("a chip looked up by label that the process may not open is reported as such, not as missing") {
+  Rig rig;
+  rig.chip.open_errno = EACCES;  // a node udev has not given the group yet
+  const auto line = GpiodLine::open({.chip = "fake-pinctrl", .line = "24", .mode = GpioMode::output});
+  REQUIRE_FALSE(line.ok());
+  CHECK(std::string(line.error().message()) == "cannot open gpiochip 'fake-pinctrl': Permission denied");
 }
 
 TEST_CASE("a line another consumer holds is refused with the errno text") {

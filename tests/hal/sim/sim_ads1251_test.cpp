@@ -4,6 +4,8 @@
 
 #include <array>
 #include <cstdint>
+#include <utility>
+#include <vector>
 
 #include "gyrotc/hal/chips/ads1251.hpp"
 #include "gyrotc/hal/sim/virtual_clock.hpp"
@@ -175,10 +177,100 @@ TEST_CASE("sim ADS1251: a stalled DRDY never falls; the pin reads high") {
   CHECK(*rig.chip.drdy().get());
 }
 
-TEST_CASE("sim ADS1251: SPI modes other than mode 0 are refused") {
+TEST_CASE("sim ADS1251: read in SPI mode 1, 2 or 3 the code comes back shifted left by one bit, counted corrupted") {
+  for (const int m : {1, 2, 3}) {
+    const auto mode = static_cast<std::uint8_t>(m);
+    Rig rig;
+    rig.input.mv = 100.0;
+    const std::int32_t code = rig.chip.code_for_mv(100.0);
+    REQUIRE(rig.chip.spi().configure({.mode = mode, .speed_hz = 1'000'000, .bits_per_word = 8}).ok());
+    const double edge_s = rig.next_falling();
+    rig.clock.sleep_until(edge_s + 12.0 * kTclkS);  // DOUT mode, MSB on the pin
+    // Every bit is taken after the part shifted: the MSB is lost, the LSB is the pin after the 24th shift (low).
+    CHECK(rig.read24() == Ads1251::sign_extend_24(static_cast<std::uint32_t>(code) << 1 & 0xFFFFFFu));
+    CHECK(rig.chip.counters().corrupted_reads == 1);
+    CHECK(rig.chip.counters().clean_reads == 0);
+  }
+}
+
+TEST_CASE("sim ADS1251: with a pin listener every level change reaches it and no edge is queued") {
+  struct Recorder final : SimAds1251::PinListener {
+    std::vector<std::pair<bool, double>> changes;
+    void on_pin_level(bool high, double t_s) noexcept override { changes.emplace_back(high, t_s); }
+  } recorder;
+  ConstantInput input;
+  input.mv = 100.0;  // MSB 0: the pin falls again when DOUT mode starts
+  VirtualClock clock;
+  SimAds1251::Config config;
+  config.pin_listener = &recorder;
+  SimAds1251 chip{input, clock, config};
+  REQUIRE(chip.spi().configure({.mode = 0, .speed_hz = 1'000'000, .bits_per_word = 8}).ok());
+  // The emulator's pin thread, on time: it wakes at each change the pin announces.
+  double next_s = chip.run_pin();
+  while (next_s < kPeriodS + 20.0 * kTclkS) {
+    clock.sleep_until(next_s);
+    next_s = chip.run_pin();
+  }
+  CHECK(next_s == Approx(kPeriodS + 360.0 * kTclkS));  // next change: the end of DOUT mode
+  REQUIRE(recorder.changes.size() == 3);
+  CHECK(recorder.changes[0].second == Approx(kPeriodS));
+  CHECK_FALSE(recorder.changes[0].first);  // the DRDY pulse ...
+  CHECK(recorder.changes[1].first);        // ... its end ...
+  CHECK_FALSE(recorder.changes[2].first);  // ... and the MSB (0) when DOUT mode starts
+  CHECK(recorder.changes[2].second == Approx(recorder.changes[0].second + 12.0 * kTclkS));
+  const auto queued = chip.drdy().wait_edge(Edge::falling, 0.0);
+  CHECK_FALSE(queued.ok());  // the kernel queues a real line's edges, not the simulator
+}
+
+TEST_CASE("sim ADS1251: an emulated pin that falls late starts its conversion's window when it falls") {
+  struct Recorder final : SimAds1251::PinListener {
+    std::vector<std::pair<bool, double>> changes;
+    void on_pin_level(bool high, double t_s) noexcept override { changes.emplace_back(high, t_s); }
+  } recorder;
+  ConstantInput input;
+  input.mv = 100.0;
+  VirtualClock clock;
+  SimAds1251::Config config;
+  config.pin_listener = &recorder;
+  SimAds1251 chip{input, clock, config};
+  REQUIRE(chip.spi().configure({.mode = 0, .speed_hz = 1'000'000, .bits_per_word = 8}).ok());
+  const double late_s = kPeriodS + 100.0 * kTclkS;  // the emulator's thread ran 100 tCLK late
+  clock.sleep_until(late_s);
+  (void)chip.run_pin();
+  REQUIRE_FALSE(recorder.changes.empty());
+  CHECK(recorder.changes[0].second == Approx(late_s));  // the DRDY edge is when the pin fell
+  clock.sleep_until(late_s + 12.0 * kTclkS);
+  (void)chip.run_pin();
+  std::array<std::uint8_t, 3> tx{}, rx{};
+  REQUIRE(chip.spi().transfer(tx, rx).ok());  // 12 tCLK after the real edge: inside its window
+  CHECK(chip.counters().clean_reads == 1);
+  clock.sleep_until(late_s + 370.0 * kTclkS);  // past this DOUT mode
+  CHECK(chip.run_pin() == Approx(late_s + kPeriodS));  // the next conversion a period after the late edge
+  CHECK(chip.counters().late_edges == 1);
+}
+
+TEST_CASE("sim ADS1251: with a pin listener a read sends each data bit's edge to the line") {
+  struct Recorder final : SimAds1251::PinListener {
+    int falling = 0;
+    void on_pin_level(bool high, double) noexcept override { falling += high ? 0 : 1; }
+  } recorder;
   ConstantInput input;
   VirtualClock clock;
-  SimAds1251 chip{input, clock, {}};
-  CHECK_FALSE(chip.spi().configure({.mode = 1, .speed_hz = 1'000'000, .bits_per_word = 8}).ok());
-  CHECK_FALSE(chip.spi().configure({.mode = 3, .speed_hz = 1'000'000, .bits_per_word = 8}).ok());
+  SimAds1251::Config config;
+  config.pin_listener = &recorder;
+  SimAds1251 chip{input, clock, config};
+  // Code 0x555555 (alternating bits, positive): 12 falling edges in the data.
+  input.mv = 0x555555 / (8388608.0 / 2500.0);
+  REQUIRE(chip.spi().configure({.mode = 0, .speed_hz = 1'000'000, .bits_per_word = 8}).ok());
+  double next_s = chip.run_pin();
+  while (next_s <= kPeriodS + 12.0 * kTclkS) {  // the pin thread, on time, into DOUT mode
+    clock.sleep_until(next_s);
+    next_s = chip.run_pin();
+  }
+  const int before = recorder.falling;  // the pulse and the MSB (0)
+  std::array<std::uint8_t, 3> tx{}, rx{};
+  REQUIRE(chip.spi().transfer(tx, rx).ok());
+  CHECK(rx[0] == 0x55);
+  CHECK(before == 2);
+  CHECK(recorder.falling - before == 12);  // 1->0 after bits 1, 3, ... 21 (11), and low after the 24th (LSB 1)
 }

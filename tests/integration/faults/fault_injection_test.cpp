@@ -109,6 +109,22 @@ TEST_CASE("fault: ADC DRDY timeout flags the rate output invalid and puts the ra
   CHECK((rig.controller().flags() & app::kFlagAdcInvalid) == 0);
 }
 
+TEST_CASE("fault: a DRDY stall longer than adc_stall_s turns the TEC off, and with conversions back the PID drives again") {
+  Rig rig;
+  warm_up(rig);
+  rig.sim().inject_drdy_stall(true);
+  rig.run(2.0);  // each step now waits out a 3-sample timeout: about 6 s of board time
+  CHECK(rig.tec_driving());  // timeouts alone: the rate output is invalid, the temperature loop goes on
+  rig.run(3.0);  // past failsafe.adc_stall_s (10 s)
+  CHECK(rig.tec_off());
+  CHECK((rig.take_row_flags() & (app::kFlagAdcStalled | app::kFlagTecOff)) ==
+        (app::kFlagAdcStalled | app::kFlagTecOff));
+  rig.sim().inject_drdy_stall(false);
+  rig.run(3.0);
+  CHECK(rig.tec_driving());
+  CHECK((rig.controller().flags() & app::kFlagAdcStalled) == 0);
+}
+
 TEST_CASE("fault: DS18B20 CRC errors hold the TEC current, then turn it off at the stale limit; good readings recover") {
   Rig rig;
   warm_up(rig);

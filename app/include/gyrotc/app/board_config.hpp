@@ -14,7 +14,8 @@
 // The board part of the daemon's configuration file:
 //
 //   hal = "linux" | "sim"        which board make_board() builds
-//   [devices.adc]                ADS1251: spi, drdy, fclk_hz, vref_v, spi_speed_hz, latency_budget_s
+//   [devices.adc]                ADS1251: spi, drdy, fclk_hz, vref_v, spi_speed_hz, latency_budget_s,
+//                                stamp_latency_max_s
 //   [devices.rate_dac]           AD5060 #1: spi, vref_v, spi_speed_hz
 //   [devices.tec_dac]            AD5060 #2: spi, spi_speed_hz
 //   [devices.opa548]             es, es_sense (optional)
@@ -23,7 +24,8 @@
 //   [tec]                        dac_vref_v, gain_a_per_v, current_limit_a
 //   [sim]                        seed, thermal_step_s, initial_temp_c, adc_wake_min_us,
 //                                adc_wake_max_us, adc_stall_probability, adc_stall_max_us,
-//                                adc_irq_delay_max_us, adc_spi_start_max_us, adc_spi_return_max_us
+//                                adc_irq_delay_max_us, adc_stamp_delay_max_us, adc_spi_start_max_us,
+//                                adc_spi_return_max_us
 //
 // deploy/config/gyrotc-{sim,linux}.toml document every key. Other top-level
 // keys and tables belong to the daemon's loader and are left alone here;
@@ -43,8 +45,8 @@ struct SimConfig {
   // Defaults: a PREEMPT_RT Raspberry Pi 4's typical figures (cyclictest
   // 20-120 us wake-ups; threaded GPIO IRQs; the spidev message pump).
   hal::SimAds1251::Timing adc_timing{.wake_min_s = 20e-6, .wake_max_s = 120e-6, .stall_probability = 0.0,
-                                     .stall_max_s = 120e-6, .irq_delay_max_s = 20e-6, .spi_start_max_s = 20e-6,
-                                     .spi_return_max_s = 30e-6, .seed = 0};
+                                     .stall_max_s = 120e-6, .irq_delay_max_s = 20e-6, .stamp_delay_max_s = 10e-6,
+                                     .spi_start_max_s = 20e-6, .spi_return_max_s = 30e-6, .seed = 0};
 };
 
 struct BoardConfig {

@@ -19,7 +19,7 @@ namespace gyrotc::app {
 
 // Flags reported with every sample and TEC command (bitmask).
 enum ControllerFlag : std::uint32_t {
-  kFlagTempStale = 1u << 0,       // no valid casing reading for > stale_periods PID periods
+  kFlagTempStale = 1u << 0,       // no valid casing reading measured in the last stale_periods PID periods
   kFlagTempInvalid = 1u << 1,     // an invalid casing reading (CRC, 85 C reset, range) since the last M good ones
   kFlagTempStuck = 1u << 2,       // the casing reading has not changed while the TEC drives
   kFlagOverTempLatched = 1u << 3, // casing over-temperature: TEC off until restart
@@ -28,7 +28,11 @@ enum ControllerFlag : std::uint32_t {
   kFlagModelClamped = 1u << 6,    // compensation temperature outside the calibrated range
   kFlagTecSaturated = 1u << 7,    // the PID output is at its limit
   kFlagTecOff = 1u << 8,          // the TEC is commanded off (0 A, OPA548 disabled)
+  kFlagAdcStalled = 1u << 9,      // no ADC sample for adc_stall_s: TEC off until samples return
 };
+
+// The name of each flag bit (for the journal); "" for a bit that is none.
+const char* flag_name(std::uint32_t flag) noexcept;
 
 // Fail-safe limits (issue 6). Defaults are documented choices.
 struct FailSafeLimits {
@@ -50,6 +54,11 @@ struct FailSafeLimits {
   // retried: with E/S released the flag can only be seen while enabled, so a
   // disabled part reads "no fault" whether or not its junction has cooled.
   double opa548_cooldown_s = 60.0;
+  // No ADC sample for this long (DRDY never falls, every read fails): the
+  // converter or its clock is dead, and with it the unit's output; the board
+  // fault may be one the TEC path shares (supply, SPI). The TEC goes off
+  // until samples come again, then the PID restarts where it stopped.
+  double adc_stall_s = 10.0;
   // Plausible casing range; outside it a reading is invalid (DS18B20: -55..125 C).
   double min_valid_c = -55.0;
   double max_valid_c = 125.0;
@@ -164,7 +173,7 @@ class Controller {
   // Casing reading state.
   bool have_casing_ = false;
   double casing_c_ = 0.0;
-  double casing_time_s_ = 0.0;   // time of the last valid reading
+  double casing_time_s_ = 0.0;   // when the last valid reading was measured
   double changed_at_s_ = 0.0;    // when the value last changed
   int good_streak_ = 0;
   double stuck_value_c_ = 0.0;   // the value that tripped the stuck fault
@@ -184,6 +193,8 @@ class Controller {
   double ambient_c_ = 0.0;
 
   double opa548_off_until_s_ = 0.0;
+  bool have_adc_time_ = false;
+  double last_sample_s_ = 0.0;  // the last ADC sample (or the first tick, before any)
 
   bool pid_running_ = false;
   bool reading_since_tick_ = false;  // a valid casing reading came since the last tick

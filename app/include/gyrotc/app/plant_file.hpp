@@ -19,7 +19,7 @@ namespace gyrotc::app {
 //                 opa548_thermal_tau_s, opa548_shutdown_c, opa548_restart_c
 //   [sensors]     ds18b20_offset_c, adc_noise_uv
 //   [gyro]        scale_mv_per_dps, arw_deg_per_sqrt_h, bias_instability_dps,
-//                 bias_instability_tau_s
+//                 bias_instability_tau_s, zero_rate_offset_mv
 //   [integration] max_thermal_step_s, initial_temp_c
 //   [effects.<name>] the named effects (model/effects.hpp), on when present:
 //     thermal_lag {tau_s}, rate_sensitivity {k_mv_per_c_per_s},

@@ -22,6 +22,7 @@ struct TuneInput {
   tune::TuneRecord record;
   double setpoint_c = 55.0;  // the record's setpoint_c column when it has one
   std::string source;        // the file, for messages
+  double experiment_scale = 1.0;  // the record's experiment was ExperimentPlan::scaled by this
 };
 
 // Reads time_s, sensor_c, tec_a and, when present, ambient_c ("nan" before

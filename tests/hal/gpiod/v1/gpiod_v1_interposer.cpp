@@ -90,6 +90,10 @@ int __real_gpiod_line_event_read_multiple(gpiod_line* line, gpiod_line_event* ev
 gpiod_chip* __wrap_gpiod_chip_open_lookup(const char* description) {
   FakeGpiochip* fake = FakeGpiochip::armed();
   if (fake == nullptr || !fake->matches(description)) return __real_gpiod_chip_open_lookup(description);
+  if (fake->open_errno != 0) {  // libgpiod 1.6 reports the chip it could not open, even in a label lookup
+    errno = fake->open_errno;
+    return nullptr;
+  }
   auto* chip = new V1Chip;
   chip->fake = fake;
   for (unsigned i = 0; i < chip->lines.size(); ++i) {

@@ -136,6 +136,10 @@ int __real_closedir(DIR* dir);
 gpiod_chip* __wrap_gpiod_chip_open(const char* path) {
   FakeGpiochip* fake = FakeGpiochip::armed();
   if (fake == nullptr || fake->path() != path) return __real_gpiod_chip_open(path);
+  if (fake->open_errno != 0) {
+    errno = fake->open_errno;
+    return nullptr;
+  }
   ++fake->open_handles;
   return reinterpret_cast<gpiod_chip*>(make_live(new V2Chip{fake}));
 }

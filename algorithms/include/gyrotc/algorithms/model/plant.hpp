@@ -94,6 +94,10 @@ struct PlantParams {
   double arw_deg_per_sqrt_h = 1.0;
   double bias_instability_dps = 0.01;
   double bias_instability_tau_s = 100.0;
+  // This unit's zero-rate output against the seed's part (Table 2): parts
+  // of one type differ by tens of mV, which is why each unit is calibrated
+  // (seed Section 4). 0 = the seed's own gyro.
+  double zero_rate_offset_mv = 0.0;
   // ADS1251 input-referred noise (datasheet: ~1.5 uV rms at 20 kSPS-class
   // settings; negligible next to the gyro's own noise).
   double adc_noise_uv = 1.5;

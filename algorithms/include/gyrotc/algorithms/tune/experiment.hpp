@@ -50,6 +50,15 @@ struct ExperimentPlan {
   double reheat_timeout_s = 1500.0;
 
   double max_duration_s() const noexcept;
+  // The same programme on a unit whose time constants are `factor` times
+  // the reference unit's (a small board, a fast emulated plant): every
+  // duration, timeout and the PRBS bit times factor, the hold's integral
+  // gain divided by it. 0 < factor <= 1. What it costs: the phases see less
+  // of whatever is slower than factor x the reference (the loss to the
+  // ambient, the shell), so `gyrotc tune` reports wider standard errors for
+  // those; the relay and PRBS, which see the loop's own dynamics, lose only
+  // if those do not scale with the unit.
+  ExperimentPlan scaled(double factor) const;
 };
 
 // Throws std::invalid_argument naming the field.

@@ -68,10 +68,12 @@ struct ThermalFit {
 
 // Throws std::invalid_argument with one line saying what is wrong or missing:
 // unequal columns, time not increasing (naming the row), a gap longer than
-// 30 s, a record shorter than 30 min, no excitation (the current hardly
+// 30 s, a record shorter than 30 min (times experiment_scale), no excitation (the current hardly
 // changes), a flat record (the casing hardly moves), a saturated experiment
 // (the current sits at one limit), or a current without effect on the casing.
-ThermalFit identify_thermal(const TuneRecord& record);
+// experiment_scale: the record is an ExperimentPlan::scaled(experiment_scale)
+// experiment, and its shortest acceptable length scales with it.
+ThermalFit identify_thermal(const TuneRecord& record, double experiment_scale = 1.0);
 
 // Standard error of a derived quantity f(model) by the delta method over the
 // fitted parameters' covariance.

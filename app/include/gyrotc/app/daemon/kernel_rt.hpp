@@ -6,7 +6,7 @@
 namespace gyrotc::app {
 
 // Whether the running kernel is a PREEMPT_RT kernel. On the board the ADS1251's
-// DOUT window (906 us at 1 kSPS) must be met after every DRDY edge, which a
+// DOUT window (907.5 us at 1 kSPS) must be met after every DRDY edge, which a
 // kernel without PREEMPT_RT misses under load; `gyrotc run` warns when it is not.
 struct KernelRealtime {
   bool preempt_rt = false;

@@ -21,6 +21,7 @@ struct SessionOptions {
   // The identification experiment of `gyrotc tune` (tune/experiment.hpp) in
   // the PID's place; the run ends when it does (or at duration_s / a signal).
   bool tune_experiment = false;
+  double experiment_scale = 1.0;  // tune::ExperimentPlan::scaled: for units faster than the reference
 };
 
 // Runs the real-time runner on the configured board until the duration ends,

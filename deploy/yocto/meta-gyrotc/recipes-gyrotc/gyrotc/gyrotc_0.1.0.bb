@@ -38,6 +38,14 @@ PACKAGECONFIG[systemd] = "-DGYROTC_SYSTEMD_NOTIFY=ON,-DGYROTC_SYSTEMD_NOTIFY=OFF
 # run the target's test binaries at build time (no test discovery); ptest runs them.
 PACKAGECONFIG[tests] = "-DGYROTC_BUILD_TESTS=ON,-DGYROTC_BUILD_TESTS=OFF,catch2"
 
+# gyrotc-emu, the board emulator (docs/EMULATOR.md): a package of its own and off by
+# default, since a board that has its hardware never needs it. fuse3 (CUSE and FUSE)
+# comes from meta-filesystems: PACKAGECONFIG:append:pn-gyrotc = " emu".
+PACKAGECONFIG[emu] = "-DGYROTC_EMU=ON,-DGYROTC_EMU=OFF,fuse3"
+PACKAGES =+ "${PN}-emu"
+FILES:${PN}-emu = "${bindir}/gyrotc-emu ${datadir}/gyrotc-emu ${docdir}/gyrotc-emu"
+RRECOMMENDS:${PN}-emu += "kernel-module-cuse kernel-module-gpio-sim kernel-module-wire"
+
 # Google Benchmark is a workstation tool.
 EXTRA_OECMAKE += " \
     -DGYROTC_BUILD_BENCH=OFF \

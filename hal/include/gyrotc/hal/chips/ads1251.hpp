@@ -17,13 +17,19 @@ namespace gyrotc::hal {
 // The same pin carries the data, so every read makes more falling edges on
 // the DRDY line (the MSB, the data bits): see Ads1251::read below.
 struct Ads1251Config {
-  double fclk_hz = 384'000.0;          // 1 kSPS, a 906 us DOUT window
+  double fclk_hz = 384'000.0;          // 1 kSPS: DOUT mode ends 937.5 us after the DRDY edge
   double vref_v = 2.5;
   std::uint32_t spi_speed_hz = 1'000'000;
   // Worst case from the DRDY edge to the first SCLK (edge event wake-up,
   // scheduling): the configuration is refused if the window cannot hold it
   // plus the 24 clock periods.
   double latency_budget_s = 300e-6;
+  // Worst case from the DRDY edge to the kernel's timestamp of it (the
+  // interrupt's latency up to the handler that stamps; a thread on
+  // PREEMPT_RT). The driver knows the edge only by its stamp, so it takes
+  // the DOUT window to end this much before 360 tCLK after the stamp: a
+  // kernel that stamps later than this lets a read past the window through.
+  double stamp_latency_max_s = 30e-6;
 };
 
 class Ads1251 final : public RateAdc {
@@ -31,7 +37,7 @@ class Ads1251 final : public RateAdc {
   static constexpr std::int32_t kCodeMax = 0x7FFFFF;   // +full scale
   static constexpr std::int32_t kCodeMin = -0x800000;  // -full scale
   static constexpr double kClocksPerSample = 384.0;    // datasheet: data rate = fCLK/384
-  static constexpr double kDoutWindowClocks = 348.0;   // datasheet: DOUT mode 348 tCLK
+  static constexpr double kDoutEndClocks = 360.0;      // t2 + t3 + DOUT mode: DOUT mode ends 360 tCLK after the edge
   // Datasheet t2 + t3: the DRDY pulse (6 tCLK low, 6 tCLK high) before DOUT
   // mode, plus t6 (30 ns) before the first SCLK.
   static constexpr double kHoldOffClocks = 12.0;
@@ -55,18 +61,21 @@ class Ads1251 final : public RateAdc {
   static std::int32_t sign_extend_24(std::uint32_t raw) noexcept;
   double code_to_mv(std::int32_t code) const noexcept { return code * mv_per_code_; }
   double sample_period_s() const noexcept { return kClocksPerSample / config_.fclk_hz; }
-  double dout_window_s() const noexcept { return kDoutWindowClocks / config_.fclk_hz; }
+  // From a DRDY edge's stamp to the end of DOUT mode, less the stamp's worst lateness.
+  double dout_window_s() const noexcept { return window_s_; }
   const Ads1251Config& config() const noexcept { return config_; }
 
  private:
-  // Takes the oldest queued falling edge that is a new conversion's DRDY:
+  // Takes the oldest queued falling edge that is a new conversion's DRDY
+  // (every stamp may be up to stamp_latency_max_s late):
   //  - an edge less than half a period after the last DRDY edge is that
   //    conversion's MSB or our read's data, skipped; any other one there is
   //    counted as spurious (the part makes none: noise on the line);
-  //  - an edge stamped before the end of the last transfer is that read's
-  //    data, skipped, or, from 372 tCLK after the last DRDY edge on, the
-  //    next DRDY edge falling while a late read still clocked: that
-  //    conversion's shift pointer was moved, so it is skipped (missed);
+  //  - an edge that may have fallen before the end of the last transfer (its
+  //    stamp no more than stamp_latency_max_s after it) is that read's data,
+  //    skipped, or, from 372 tCLK after the last DRDY edge on, the next DRDY
+  //    edge falling while a late read still clocked: that conversion's shift
+  //    pointer was moved, so it is skipped (missed);
   //  - a gap of n periods since the last DRDY edge: n - 1 conversions missed
   //    (counted from the first sample read on: edges queued since the line
   //    was requested are stale, not missed).
@@ -75,8 +84,8 @@ class Ads1251 final : public RateAdc {
   // window, and reads. A transfer that ended after the window is a late
   // read: its sample is dropped (and the queue kept, see do_read); one that
   // ended inside it drops the edges queued meanwhile. The window is
-  // taken as 348 tCLK from the stamped edge, 12 tCLK short of the datasheet's
-  // end of DOUT mode, a margin for the lateness of the edge's timestamp.
+  // taken to end stamp_latency_max_s before the datasheet's end of DOUT mode
+  // (360 tCLK) counted from the stamp: the stamp is that late at worst.
   // Repeats until a sample is read whole or timeout_s has passed.
   Result<AdcSample> do_read(double timeout_s) noexcept override;
   AdcReadStats do_stats() const noexcept override { return stats_; }

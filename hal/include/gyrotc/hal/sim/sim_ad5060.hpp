@@ -10,10 +10,17 @@
 namespace gyrotc::hal {
 
 // Bit-level AD5060 simulator: decodes 24-bit frames (6 don't-care bits,
-// PD1 PD0, 16 data bits) clocked in on SPI mode 1. A frame that is not 24
-// bits long is ignored, as the part ignores a SYNC that rises early. In
-// power-down the output is pulled to 0 V (1 kOhm / 100 kOhm) or left open
-// (three-state, reported as 0 V).
+// PD1 PD0, 16 data bits) clocked in on the SCLK falling edges. A frame that
+// is not 24 bits long is ignored, as the part ignores a SYNC that rises
+// early. In power-down the output is pulled to 0 V (1 kOhm / 100 kOhm) or
+// left open (three-state, reported as 0 V).
+//
+// SPI modes: in modes 1, 2 and 3 the data is stable at the falling edges the
+// part latches on. In mode 0 the controller changes the data at those very
+// edges: the race with the part's hold time (t6, 4.5 ns) goes the part's
+// worst way, every bit latched is the next one and the frame arrives shifted
+// left by one (its last bit the idle data line, low). SCLK above the part's
+// 30 MHz (t1 = 33 ns) loses the frame: it is ignored.
 class SimAd5060 final : public SpiBus {
  public:
   // Told on every accepted frame, on the thread that wrote it.
@@ -42,6 +49,8 @@ class SimAd5060 final : public SpiBus {
   double v_per_code_;
   Listener* listener_;
   bool configured_ = false;
+  std::uint8_t spi_mode_ = 1;
+  std::uint32_t speed_hz_ = 0;
   std::uint16_t code_ = 0;
   Ad5060PowerDown mode_ = Ad5060PowerDown::normal;
   std::atomic<double> output_v_{0.0};

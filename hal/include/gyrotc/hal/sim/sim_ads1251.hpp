@@ -37,11 +37,29 @@ namespace gyrotc::hal {
 // The DRDY line behaves like a GPIO line requested for edge events: every
 // transition the request selects is queued (at most kQueueEvents, newer ones
 // dropped when full, as the v1 uAPI's kfifo does) with the time of the edge
-// as its timestamp; an event becomes readable irq_delay after the edge. With
+// as its timestamp, or later by the stamping handler's latency (Timing::
+// stamp_delay_max_s: a real kernel stamps in its interrupt handler, not at
+// the pin); an event becomes readable irq_delay after the edge. With
 // a both-edge request the v1 kernel labels each event by the line level its
 // IRQ thread reads then, so a DRDY pulse already over is labelled rising.
 // wait_edge() returns the oldest queued event of the wanted kind (skipping
 // others), discard_edges() drops the queue, get() reads the pin.
+//
+// SPI modes: the part shifts DOUT on SCLK falling edges and is read in mode 0
+// (sampled on the rising edge). In any other mode the sample is taken at the
+// edge the part shifts on, or after it: the race between the controller's
+// sample and the part's 5 ns hold time (t8) goes the part's worst way, and
+// every bit read is the next one (the code comes back shifted left by one,
+// its LSB the pin's level after the 24th bit). Such reads count as corrupted.
+//
+// Emulation (Config::pin_listener set, gyrotc-emu): the pin drives a real
+// GPIO line, and the kernel queues its edges. Every level change goes to the
+// listener instead of the internal queue; a DRDY edge is anchored to the time
+// the pin really falls (the emulator's thread may run late: the conversion's
+// window then starts from that time, as the part's own timing would, and the
+// following conversions keep their period from it: the clock's phase slips,
+// Counters::late_edges); transfers shift bit by bit so every data edge
+// reaches the line.
 //
 // Time comes from the board's clock: a VirtualClock jumps (lockstep), a
 // RealtimeSimClock really sleeps. The reader's environment is randomised per
@@ -59,6 +77,14 @@ class SimAds1251 {
     virtual double input_mv(double t_s) noexcept = 0;
   };
 
+  // The pin's level changes, for an emulator that drives a real GPIO line.
+  // Called on the thread that moved the pin, with the time of the change.
+  class PinListener {
+   public:
+    virtual ~PinListener() = default;
+    virtual void on_pin_level(bool high, double t_s) noexcept = 0;
+  };
+
   // Which edges the simulated GPIO request queues.
   enum class EdgeRequest : std::uint8_t {
     falling,  // falling edges only (every event is a falling edge)
@@ -72,6 +98,8 @@ class SimAds1251 {
     double stall_probability = 0.0;   // per wake-up: a stall, uniform in [wake_max_s, stall_max_s]
     double stall_max_s = 0.0;
     double irq_delay_max_s = 0.0;     // edge -> event readable (and labelled), uniform in [0, max]
+    double stamp_delay_max_s = 0.0;   // edge -> the kernel's timestamp of it (the handler that stamps
+                                      // runs late too), uniform in [0, max]; never after readable
     double spi_start_max_s = 0.0;     // transfer called -> first SCLK (SPI message queue), uniform in [0, max]
     double spi_return_max_s = 0.0;    // last SCLK -> transfer returns, uniform in [0, max]
     std::uint64_t seed = 1;
@@ -82,6 +110,7 @@ class SimAds1251 {
     double vref_v = 2.5;
     EdgeRequest request = EdgeRequest::falling;
     Timing timing;
+    PinListener* pin_listener = nullptr;  // emulation: the pin drives a real line (see above)
   };
 
   // Reads the simulator saw (any thread; relaxed counters).
@@ -91,6 +120,7 @@ class SimAds1251 {
     std::uint64_t clean_reads = 0;     // 24 bits, all inside one DOUT window from its MSB
     std::uint64_t corrupted_reads = 0; // anything else: early, late, repeated, partial
     std::uint64_t dropped_events = 0;  // edge events lost to a full queue
+    std::uint64_t late_edges = 0;      // emulation: DRDY edges written more than 6 tCLK late (the grid slips)
   };
 
   static constexpr std::size_t kQueueEvents = 16;  // the v1 uAPI's per-line kfifo
@@ -123,6 +153,22 @@ class SimAds1251 {
   void inject_glitch(double t_s) noexcept { glitch_s_ = t_s; }
 
   Counters counters() const noexcept;
+
+  // Emulation: moves the pin to the clock's now (the listener hears every
+  // change) and returns when it next changes by itself. The caller
+  // serialises this with the SPI calls.
+  double run_pin() noexcept;
+  // The SPI mode the bus was last configured with (0xFF: not yet).
+  std::uint8_t spi_mode() const noexcept { return spi_mode_; }
+  // The last transfer: its first SCLK and the DRDY edge of the conversion
+  // the pin showed then (the thread that reads).
+  struct TransferTiming {
+    double start_s = 0.0;
+    double edge_s = 0.0;
+    bool clean = false;
+  };
+  TransferTiming last_transfer() const noexcept { return last_transfer_; }
+  double tclk_s() const noexcept { return tclk_s_; }
 
  private:
   class Bus final : public SpiBus {
@@ -162,7 +208,7 @@ class SimAds1251 {
   // edges on the way.
   void advance_to(double t_s) noexcept;
   void enter(Segment segment) noexcept;  // and the time it ends
-  void cross_boundary() noexcept;
+  void cross_boundary(double t_s) noexcept;  // at t_s (the boundary, or later for an anchored DRDY edge)
   void set_level(bool level, double t_s) noexcept;
   void queue_edge(double t_s, bool falling, double irq_delay_s) noexcept;
   void label_visible(double t_s) noexcept;
@@ -190,6 +236,7 @@ class SimAds1251 {
   // Pin state at t_s_.
   double t_s_ = 0.0;
   std::int64_t cycle_ = 0;        // conversion k of the last DRDY edge
+  double edge_s_ = 0.0;           // its DRDY edge (k * period, or later when anchored)
   Segment segment_ = Segment::drdy_high;
   double boundary_s_ = 0.0;       // when segment_ ends
   std::uint32_t frame_ = 0;       // conversion k's 24-bit code
@@ -202,6 +249,8 @@ class SimAds1251 {
   double last_visible_s_ = 0.0;   // the IRQ thread queues in edge order
   double glitch_s_ = std::numeric_limits<double>::infinity();
 
+  TransferTiming last_transfer_;
+
   std::array<std::int32_t, kHistory> history_code_{};
   std::array<std::int64_t, kHistory> history_index_{};
 
@@ -213,6 +262,7 @@ class SimAds1251 {
   std::atomic<std::uint64_t> clean_reads_{0};
   std::atomic<std::uint64_t> corrupted_reads_{0};
   std::atomic<std::uint64_t> dropped_events_{0};
+  std::atomic<std::uint64_t> late_edges_{0};
 };
 
 }  // namespace gyrotc::hal
