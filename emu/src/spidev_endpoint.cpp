@@ -28,46 +28,29 @@ std::uint8_t reverse_bits(std::uint8_t b) {
   return static_cast<std::uint8_t>((b & 0xAAu) >> 1 | (b & 0x55u) << 1);
 }
 
-// A word's bytes in wire order (MSB first) from the CPU's (little-endian)
-// order, optionally with its bits reversed (LSB first). The map is its own
-// inverse for a whole word.
-void convert_word(const std::uint8_t* from, std::uint8_t* to, unsigned bytes, bool lsb_first) {
-  for (unsigned i = 0; i < bytes; ++i) {
-    // MSB first: the word's most significant byte (the last in memory) goes first.
-    const std::uint8_t b = from[bytes - 1 - i];
-    to[i] = b;
+// A buffer's words in wire order (MSB first) from the CPU's (little-endian)
+// order, or with each word's bits reversed (LSB first: the whole word read
+// backwards, which leaves the bytes in memory order, each bit-reversed). The
+// map is its own inverse, so it serves both directions. Indexing only (no
+// scratch word) keeps GCC 12's -Wstringop-overflow from guessing at bounds.
+std::vector<std::uint8_t> swap_words(std::span<const std::uint8_t> in, unsigned bits_per_word, bool lsb_first) {
+  const unsigned w = word_bytes(bits_per_word);
+  std::vector<std::uint8_t> out(in.size());
+  for (std::size_t i = 0; i + w <= in.size(); i += w) {
+    for (unsigned k = 0; k < w; ++k) out[i + k] = lsb_first ? reverse_bits(in[i + k]) : in[i + w - 1 - k];
   }
-  if (lsb_first) {
-    // LSB first on the wire: the whole word's bit order reversed.
-    std::reverse(to, to + bytes);
-    for (unsigned i = 0; i < bytes; ++i) to[i] = reverse_bits(to[i]);
-  }
+  return out;
 }
 
 }  // namespace
 
 std::vector<std::uint8_t> memory_to_wire(std::span<const std::uint8_t> memory, unsigned bits_per_word,
                                          bool lsb_first) {
-  const unsigned w = word_bytes(bits_per_word);
-  std::vector<std::uint8_t> wire(memory.size());
-  for (std::size_t i = 0; i + w <= memory.size(); i += w) convert_word(&memory[i], &wire[i], w, lsb_first);
-  return wire;
+  return swap_words(memory, bits_per_word, lsb_first);
 }
 
 std::vector<std::uint8_t> wire_to_memory(std::span<const std::uint8_t> wire, unsigned bits_per_word, bool lsb_first) {
-  const unsigned w = word_bytes(bits_per_word);
-  std::vector<std::uint8_t> memory(wire.size());
-  for (std::size_t i = 0; i + w <= wire.size(); i += w) {
-    // The inverse of convert_word: undo the bit reversal, then the byte order.
-    std::uint8_t word[4];
-    std::copy(&wire[i], &wire[i] + w, word);
-    if (lsb_first) {
-      std::reverse(word, word + w);
-      for (unsigned k = 0; k < w; ++k) word[k] = reverse_bits(word[k]);
-    }
-    for (unsigned k = 0; k < w; ++k) memory[i + k] = word[w - 1 - k];
-  }
-  return memory;
+  return swap_words(wire, bits_per_word, lsb_first);
 }
 
 IoctlReply IoctlReply::retry_with(std::vector<UserRange> in_ranges, std::vector<UserRange> out_ranges) {
