@@ -106,6 +106,12 @@ if [ "$debarch" != "$host_arch" ] && ! arch-test "$debarch" >/dev/null 2>&1; the
 fi
 
 in_chroot() { env -i PATH=/usr/sbin:/usr/bin:/sbin:/bin HOME=/root LANG=C.UTF-8 DEBIAN_FRONTEND=noninteractive chroot "$bc" "$@"; }
+# A cached tree to rebuild: an mmdebstrap killed mid-run leaves its proc, sys
+# and dev mounts inside, and rm -rf must never follow them out of the tree.
+remove_tree() {
+  awk -v d="$1/" 'index($2, d) == 1 {print $2}' /proc/mounts | sort -r | while read -r m; do umount -l "$m"; done
+  rm -rf --one-file-system "$1"
+}
 stamp_ok() { [ "$refresh" = 0 ] && [ -f "$1/.vm-test-stamp" ] && [ "$(cat "$1/.vm-test-stamp")" = "$2" ]; }
 
 # --- 1. the build chroot ------------------------------------------------------------
@@ -120,7 +126,7 @@ fi
 stamp="$suite $build_archs ${build_pkgs[*]} ${sources[*]}"
 if ! stamp_ok "$bc" "$stamp"; then
   say "[1/5] build chroot: mmdebstrap $suite ($build_archs) -> $bc (log: $logs/build-chroot.log)"
-  rm -rf "$bc"
+  remove_tree "$bc"
   mmdebstrap --variant=apt --architectures="$build_archs" --include="$(IFS=,; echo "${build_pkgs[*]}")" \
     "$suite" "$bc" "${sources[@]}" >"$logs/build-chroot.log" 2>&1 || die build-chroot "mmdebstrap failed" "$logs/build-chroot.log"
   echo "$stamp" >"$bc/.vm-test-stamp"
@@ -150,7 +156,7 @@ root_stamp="$root_format $suite $debarch ${root_pkgs[*]} $kimg ${sources[*]}"
 root_pid=
 if ! stamp_ok "$rd" "$root_stamp"; then
   say "[2/5] root: mmdebstrap $suite $debarch (${root_pkgs[*]}) in the background (log: $logs/root.log)"
-  rm -rf "$rd" && mkdir -p "$rd"
+  remove_tree "$rd" && mkdir -p "$rd"
   mmdebstrap --variant=minbase --architectures="$debarch" --include="$(IFS=,; echo "${root_pkgs[*]}")" \
     --customize-hook='echo vmboard >"$1/etc/hostname"' \
     "$suite" "$rd/root" "${sources[@]}" >"$logs/root.log" 2>&1 &
