@@ -69,9 +69,16 @@ Result<AdcSample> Ads1251::do_read(double timeout_s) noexcept {
       continue;
     }
     if (during_transfer && since_s < next_drdy_after_s_) continue;  // data bits of a read late in the window
-    if (have_read_ && have_edge_) {
+    // The conversions are on the part's crystal grid, so the last DRDY
+    // stamp bounds this edge too: a stamp later than stamp_latency_max_s
+    // cannot open the window past its end unless the last one was late as well.
+    double window_from_s = edge_s;
+    if (have_edge_) {
       const auto periods = static_cast<std::uint64_t>(since_s / period_s_ + 0.5);  // since_s > 0
-      if (periods > 1) stats_.missed_conversions += periods - 1;
+      if (have_read_ && periods > 1) stats_.missed_conversions += periods - 1;
+      if (periods <= kGridMemoryPeriods) {
+        window_from_s = std::min(edge_s, last_edge_s_ + static_cast<double>(periods) * period_s_);
+      }
     }
     have_edge_ = true;
     last_edge_s_ = edge_s;
@@ -87,7 +94,7 @@ Result<AdcSample> Ads1251::do_read(double timeout_s) noexcept {
       clock_.sleep_until(edge_s + hold_off_s_);
       now_s = clock_.now_s();
     }
-    if (now_s + transfer_s_ > edge_s + window_s_) {
+    if (now_s + transfer_s_ > window_from_s + window_s_) {
       if (have_read_) ++stats_.missed_conversions;  // woken too late: clocking now would read a mix
       continue;
     }
@@ -95,7 +102,7 @@ Result<AdcSample> Ads1251::do_read(double timeout_s) noexcept {
     std::array<std::uint8_t, 3> rx{};
     const Status transfer = spi_.transfer(kZeros, rx);
     last_transfer_end_s_ = clock_.now_s();
-    if (last_transfer_end_s_ > edge_s + window_s_) {
+    if (last_transfer_end_s_ > window_from_s + window_s_) {
       // Mixed data. No drain: the next DRDY edge may be queued already, and
       // must be seen to skip the conversion whose pulse these SCLKs hit.
       ++stats_.late_reads;

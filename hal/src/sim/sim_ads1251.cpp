@@ -186,7 +186,10 @@ void SimAds1251::set_level(bool level, double t_s) noexcept {
 void SimAds1251::queue_edge(double t_s, bool falling, double irq_delay_s) noexcept {
   if (config_.request == EdgeRequest::falling && !falling) return;  // rising edges are not requested
   Event e;
-  e.stamp_s = t_s + uniform(0.0, config_.timing.stamp_delay_max_s);
+  const Timing& timing = config_.timing;
+  const bool held_off = timing.late_stamp_probability > 0.0 && uniform(0.0, 1.0) < timing.late_stamp_probability;
+  e.stamp_s = t_s + (held_off ? uniform(timing.stamp_delay_max_s, timing.late_stamp_max_s)
+                              : uniform(0.0, timing.stamp_delay_max_s));
   e.visible_s = std::max({t_s + irq_delay_s, e.stamp_s, last_visible_s_});
   last_visible_s_ = e.visible_s;
   e.falling = falling;

@@ -261,6 +261,29 @@ TEST_CASE("a transfer that ends past the DOUT window is dropped and counted late
   CHECK(rig.adc.stats().late_reads >= corrupted);
 }
 
+TEST_CASE("a DRDY stamp later than stamp_latency_max_s does not stretch the window: the last stamp bounds the edge") {
+  // One edge in fifty stamped up to 400 us late (an interrupt held off; the
+  // configuration promises 30 us), read 800..1000 us after the edge: taken
+  // from its own stamp, the window of a late-stamped conversion would end up
+  // to 400 us after DOUT mode has.
+  WavyRig rig({.late_stamp_probability = 0.02, .late_stamp_max_s = 400e-6, .seed = 11});
+  REQUIRE(rig.adc.read(0.01).ok());
+  int samples = 0;
+  int genuine = 0;
+  for (int i = 0; i < 2000; ++i) {
+    const double next_edge_s = (std::floor(rig.clock.now_s() / kPeriodS) + 1.0) * kPeriodS;
+    rig.clock.sleep_until(next_edge_s + 800e-6 + (i % 50) * 4e-6);
+    const auto sample = rig.adc.read(0.01);
+    REQUIRE(sample.ok());
+    ++samples;
+    if (rig.genuine(*sample)) ++genuine;
+  }
+  INFO("missed " << rig.adc.stats().missed_conversions << ", corrupted transfers "
+                 << rig.chip.counters().corrupted_reads);
+  CHECK(genuine == samples);
+  CHECK(rig.adc.stats().missed_conversions > 0);
+}
+
 TEST_CASE("edges lost while the reader slept count as missed conversions") {
   WavyRig rig({});
   REQUIRE(rig.adc.read(0.01).ok());  // conversion 1

@@ -79,7 +79,11 @@ TEST_CASE("hostile ADS1251 at 1 kSPS: no corrupted sample accepted, every corrup
   CHECK(r.chip.corrupted_reads > 0);          // the run did produce mixed transfers...
   CHECK(c.late_reads >= r.chip.corrupted_reads);  // ...and the driver caught each one
   CHECK(c.missed_conversions > 0);
-  CHECK(c.spurious_edges == 0);             // the pin's own edges are never noise
+  // The pin's own edges are taken for noise only where they cannot be told
+  // apart: a data bit of a read clocked past the window and stamped less than
+  // 2 x stamp_latency_max_s before where the next DRDY may fall is taken for
+  // that DRDY (its conversion skipped as missed), and then its MSB for noise.
+  CHECK(c.spurious_edges <= c.late_reads);
   // Every conversion is read, dropped as late, or counted missed.
   CHECK(static_cast<double>(c.samples + c.late_reads + c.missed_conversions) == Approx(r.conversions).margin(3.0));
 }

@@ -48,6 +48,10 @@ class Ads1251 final : public RateAdc {
   // A positive code's MSB pulls the pin low when DOUT mode starts, 12 tCLK
   // after the DRDY edge; edge stamps jitter by a few microseconds.
   static constexpr double kMsbToleranceClocks = 6.0;
+  // The last DRDY stamp bounds an edge up to this many periods later; over
+  // so few the two clocks (the part's crystal, CLOCK_MONOTONIC) drift by
+  // nanoseconds at 100 ppm.
+  static constexpr std::uint64_t kGridMemoryPeriods = 4;
 
   // drdy must deliver falling edges in order with CLOCK_MONOTONIC stamps
   // (GpioLine::wait_edge), on the same time base as clock.
@@ -75,7 +79,10 @@ class Ads1251 final : public RateAdc {
   //    stamp no more than stamp_latency_max_s after it) is that read's data,
   //    skipped, or, from 372 tCLK after the last DRDY edge on, the next DRDY
   //    edge falling while a late read still clocked: that conversion's shift
-  //    pointer was moved, so it is skipped (missed);
+  //    pointer was moved, so it is skipped (missed). A data bit stamped
+  //    within 2 x stamp_latency_max_s of where the next DRDY may fall cannot
+  //    be told from it: taken for it, that conversion is skipped and its MSB
+  //    counted spurious (never a sample: only a conversion lost);
   //  - a gap of n periods since the last DRDY edge: n - 1 conversions missed
   //    (counted from the first sample read on: edges queued since the line
   //    was requested are stale, not missed).
@@ -85,7 +92,10 @@ class Ads1251 final : public RateAdc {
   // read: its sample is dropped (and the queue kept, see do_read); one that
   // ended inside it drops the edges queued meanwhile. The window is
   // taken to end stamp_latency_max_s before the datasheet's end of DOUT mode
-  // (360 tCLK) counted from the stamp: the stamp is that late at worst.
+  // (360 tCLK) counted from the stamp: the stamp is that late at worst; or
+  // from the last DRDY stamp plus the periods since, if that is earlier (the
+  // conversions keep the crystal's grid), so that one stamp later than
+  // stamp_latency_max_s cannot let a read past the window through.
   // Repeats until a sample is read whole or timeout_s has passed.
   Result<AdcSample> do_read(double timeout_s) noexcept override;
   AdcReadStats do_stats() const noexcept override { return stats_; }

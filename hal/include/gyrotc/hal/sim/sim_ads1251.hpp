@@ -100,6 +100,8 @@ class SimAds1251 {
     double irq_delay_max_s = 0.0;     // edge -> event readable (and labelled), uniform in [0, max]
     double stamp_delay_max_s = 0.0;   // edge -> the kernel's timestamp of it (the handler that stamps
                                       // runs late too), uniform in [0, max]; never after readable
+    double late_stamp_probability = 0.0;  // per edge: a stamp later than that (an interrupt held off),
+    double late_stamp_max_s = 0.0;        // uniform in [stamp_delay_max_s, late_stamp_max_s]
     double spi_start_max_s = 0.0;     // transfer called -> first SCLK (SPI message queue), uniform in [0, max]
     double spi_return_max_s = 0.0;    // last SCLK -> transfer returns, uniform in [0, max]
     std::uint64_t seed = 1;
