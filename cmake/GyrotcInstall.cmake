@@ -1,10 +1,10 @@
-# Install rules and the DEB package: the documented tree (README.md, "Deploy").
+# Install rules and the DEB package: the documented tree (docs/GUIDE.md, "Deploy").
 # With CMAKE_INSTALL_PREFIX=/usr (Debian, Yocto):
 #   /usr/bin/gyrotc
 #   /etc/gyrotc/gyrotc.toml            deploy/config/gyrotc-linux.toml (the board)
 #   /etc/gyrotc/gyrotc-sim.toml        deploy/config/gyrotc-sim.toml (no hardware)
 #   /etc/gyrotc/calibration.toml       data/calibration_table2.toml (seed calibration;
-#                                      replace with the unit's own, see README)
+#                                      replace with the unit's own, see docs/GUIDE.md)
 #   /usr/lib/systemd/system/gyrotc.service, /usr/lib/sysusers.d/gyrotc.conf
 #   /usr/lib/udev/rules.d/60-gyrotc.rules
 #   /usr/share/gyrotc/                 the seed's tables and chamber profile (data/)

@@ -54,10 +54,18 @@ sed -e 's/^adc_wake_min_us = .*/adc_wake_min_us = 0.0/' \
     -e 's/^status_interval_s = .*/status_interval_s = 60.0/' \
     deploy/config/gyrotc-sim.toml > "$config"
 grep -q '^adc_stall_probability = 0.02' "$config" || { echo "hostile_adc.sh: could not set the [sim] adc keys" >&2; exit 2; }
+# The configuration names its calibration relative to itself.
+cp deploy/config/calibration.toml "$out/calibration.toml"
 
 summary=$out/summary.json
 echo "hostile_adc.sh: $gyrotc run, ${duration} s at 1 kSPS; log in $out/run.log" >&2
-"$gyrotc" run --config "$config" --duration "$duration" --allow-non-rt --summary-json "$summary" 2> "$out/run.log"
+rc=0
+"$gyrotc" run --config "$config" --duration "$duration" --allow-non-rt --summary-json "$summary" 2> "$out/run.log" || rc=$?
+if [ "$rc" -ne 0 ]; then
+  echo "hostile_adc.sh: '$gyrotc run --config $config' failed (exit $rc); the end of $out/run.log:" >&2
+  tail -n 5 "$out/run.log" >&2
+  exit "$rc"
+fi
 
 jq -r '"samples accepted        \(.sim_adc.accepted_samples)",
        "  of them corrupted     \(.sim_adc.accepted_corrupted_samples)",

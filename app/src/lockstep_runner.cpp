@@ -169,7 +169,7 @@ ControllerConfig controller_preset(ControllerMode mode, const model::PlantParams
   config.pid.out_max = plant.current_limit_a;
   if (mode == ControllerMode::off) config.pid_enabled = false;
   if (mode == ControllerMode::tuned) {
-    // Ours (README.md "Simulation"): the seed's integral-separated PID
+    // Ours (docs/GUIDE.md "Simulation"): the seed's integral-separated PID
     // structure, retuned for this plant, plus feed-forward from the ambient
     // DS18B20. KD 4 instead of 10: the seed's KD turns every 0.0625 C DS18B20
     // step into a 0.6 A kick, the main source of its in-band error. Kp 1.0

@@ -9,7 +9,7 @@
 # CMAKE_CROSSCOMPILING_EMULATOR, so plain `ctest` works.
 #
 # A Yocto SDK does not use this file: source the SDK's environment script and
-# configure with its OEToolchainConfig.cmake (see README, "Cross-building").
+# configure with its OEToolchainConfig.cmake (see docs/GUIDE.md, "Cross-building").
 set(CMAKE_SYSTEM_NAME Linux)
 set(CMAKE_SYSTEM_PROCESSOR aarch64)
 set(GYROTC_TRIPLE aarch64-linux-gnu)

@@ -50,7 +50,21 @@ void AdcEmulator::run() {
   }
 }
 
-void AdcEmulator::on_pin_level(bool high, double) noexcept { pin_.set_level(high != pin_active_low_); }
+void AdcEmulator::on_pin_level(bool high, double t_s) noexcept {
+  const double start_s = clock_.now_s();
+  pin_.set_level(high != pin_active_low_);
+  // A write that takes long delays the kernel's stamp of its edge: the
+  // emulated part takes its DRDY edge when the write is done (SimAds1251);
+  // the slowest are logged, as they are what the driver's
+  // stamp_latency_max_s has to cover.
+  const double done_s = clock_.now_s();
+  if (!high && done_s - start_s > kSlowPinWriteS) {
+    char detail[96];
+    std::snprintf(detail, sizeof detail, "write_ms=%.2f;after_its_time_ms=%.2f", (done_s - start_s) * 1e3,
+                  (start_s - t_s) * 1e3);
+    log_.add(done_s, "adc", "pin_write", "slow", detail);
+  }
+}
 
 int AdcEmulator::transfer(const SpiWire& wire, std::span<const std::uint8_t> tx, std::span<std::uint8_t> rx) {
   if (spi_error_.load()) return EIO;  // the controller reports the transfer failed

@@ -105,7 +105,7 @@ TEST_CASE("the experiment through the real-time runner's loop (lockstep) records
   config.board.devices.adc.fclk_hz = 384.0 * 20.0;  // 20 samples a second: the loop passes that matter here
   // The simulated stage's own current limit is 1 A (PlantParams): tune takes
   // the commanded current as what flows but for the OPA548's rails, so the
-  // configured limit must not exceed the stage's (README, `gyrotc tune`).
+  // configured limit must not exceed the stage's (docs/GUIDE.md, `gyrotc tune`).
   config.board.devices.tec.current_limit_a = 1.0;
   config.controller.pid.out_min = -1.0;
   config.controller.pid.out_max = 1.0;
@@ -141,5 +141,5 @@ TEST_CASE("the experiment through the real-time runner's loop (lockstep) records
   CHECK(fit.rms_c < 0.03);
   CHECK(fit.rail_reached);
   const double hold = tune::holding_current_a(fit.model, 55.0, -20.0, 1.0);
-  CHECK(hold == Approx(0.37).margin(0.03));  // the plant's holding current at -20 C (README: 0.36 A)
+  CHECK(hold == Approx(0.37).margin(0.03));  // the plant's holding current at -20 C (docs/GUIDE.md: 0.36 A)
 }

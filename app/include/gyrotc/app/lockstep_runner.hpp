@@ -135,7 +135,7 @@ const char* to_string(ControllerMode mode) noexcept;
 // current limit):
 //  - paper: the seed's integral-separated PID (Eq. 17/18: Kp 0.48, KI 0.32,
 //    KD 10, T 2 s, xi 0.5 C), setpoint 55 C;
-//  - tuned: ours, see README.md "Simulation";
+//  - tuned: ours, see docs/GUIDE.md "Simulation";
 //  - off: compensation only, the TEC stays off.
 ControllerConfig controller_preset(ControllerMode mode, const model::PlantParams& plant);
 

@@ -53,6 +53,7 @@ class AdcEmulator final : public SpiTarget, hal::SimAds1251::PinListener {
   double sample_period_s() const noexcept { return chip_.sample_period_s(); }
 
  private:
+  static constexpr double kSlowPinWriteS = 2e-3;  // a falling pin write logged as slow
   void on_pin_level(bool high, double t_s) noexcept override;
   void run();
 

@@ -23,7 +23,7 @@
 // it is integrated with backward Euler (L-stable: any step is stable, a stiff
 // die cannot blow up) on steps of at most max_thermal_step_s.
 //
-// Every default below is a documented physical choice; README.md "Simulation"
+// Every default below is a documented physical choice; docs/GUIDE.md "Simulation"
 // explains the calibration against the seed's Fig. 26.
 namespace gyrotc::model {
 
