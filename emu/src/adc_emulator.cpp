@@ -53,10 +53,9 @@ void AdcEmulator::run() {
 void AdcEmulator::on_pin_level(bool high, double t_s) noexcept {
   const double start_s = clock_.now_s();
   pin_.set_level(high != pin_active_low_);
-  // A write that takes long delays the kernel's stamp of its edge: the
-  // emulated part takes its DRDY edge when the write is done (SimAds1251);
-  // the slowest are logged, as they are what the driver's
-  // stamp_latency_max_s has to cover.
+  // The pin falls, and the kernel stamps it, somewhere inside the write:
+  // a slow one makes the emulated part's edge uncertain by its length, which
+  // the configuration's stamp_latency_max_s has to cover. The slowest are logged.
   const double done_s = clock_.now_s();
   if (!high && done_s - start_s > kSlowPinWriteS) {
     char detail[96];

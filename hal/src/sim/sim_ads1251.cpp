@@ -124,16 +124,6 @@ void SimAds1251::cross_boundary(double t) noexcept {
       bump(conversions_);
       enter(Segment::pulse_low);
       set_level(false, t);
-      if (config_.pin_listener != nullptr) {
-        // An emulated pin has fallen by the time its write returns, which
-        // can take milliseconds: the conversion starts then.
-        const double written_s = clock_.now_s();
-        if (written_s > t) {
-          edge_s_ = written_s;
-          enter(Segment::pulse_low);
-          t = written_s;
-        }
-      }
       break;
     }
   }

@@ -249,36 +249,6 @@ TEST_CASE("sim ADS1251: an emulated pin that falls late starts its conversion's 
   CHECK(chip.counters().late_edges == 1);
 }
 
-TEST_CASE("sim ADS1251: an emulated DRDY write that takes long starts the conversion when it returns") {
-  // The write of the falling DRDY edge takes 3 ms (a loaded emulation host):
-  // the kernel stamps the edge after it, so the part's conversion, and its
-  // DOUT mode, start when the write is done.
-  struct SlowPin final : SimAds1251::PinListener {
-    VirtualClock* clock = nullptr;
-    void on_pin_level(bool high, double) noexcept override {
-      if (!high) clock->sleep_until(clock->now_s() + 3e-3);
-    }
-  } pin;
-  ConstantInput input;
-  input.mv = -100.0;  // MSB 1: no falling edge when DOUT mode starts
-  VirtualClock clock;
-  pin.clock = &clock;
-  SimAds1251::Config config;
-  config.pin_listener = &pin;
-  SimAds1251 chip{input, clock, config};
-  REQUIRE(chip.spi().configure({.mode = 0, .speed_hz = 1'000'000, .bits_per_word = 8}).ok());
-  clock.sleep_until(kPeriodS);
-  (void)chip.run_pin();
-  const double written_s = kPeriodS + 3e-3;
-  REQUIRE(clock.now_s() == Approx(written_s));
-  CHECK(chip.run_pin() == Approx(written_s + 6.0 * kTclkS));  // the pulse ends 6 tCLK after the write
-  clock.sleep_until(written_s + 300.0 * kTclkS);               // inside DOUT mode counted from the write
-  (void)chip.run_pin();
-  std::array<std::uint8_t, 3> tx{}, rx{};
-  REQUIRE(chip.spi().transfer(tx, rx).ok());
-  CHECK(chip.counters().clean_reads == 1);
-}
-
 TEST_CASE("sim ADS1251: with a pin listener a read sends each data bit's edge to the line") {
   struct Recorder final : SimAds1251::PinListener {
     int falling = 0;
