@@ -179,7 +179,7 @@ fi
 
 # --- 3. the board emulator serving the service's configuration -------------------
 # The configuration the emulator serves and the service reads: the package's
-# example for an emulated board (gpio-sim chip by label, 100 SPS, an E/S sense
+# example for an emulated board (gpio-sim chip by label, 10 SPS, an E/S sense
 # line). A CUSE node is not spidev's major, so the unit's DeviceAllow=char-spi
 # does not cover it: a drop-in names the nodes (docs/EMULATOR.md).
 HIL_CHECKS=(hil-emulator hil-probe hil-tune start realtime sandbox watchdog outputs hil-settle hil-sensor-loss
@@ -510,10 +510,15 @@ used_before=$(awk -F, '$2 == "mark" && $4 == "cal-start" { exit } $2 == "adc" &&
               sed -n 's/.*corrupted_used=\([0-9]*\).*/\1/p')
 used_after=$(used_corrupted reload-end)
 used=$(( ${used_after:-0} - ${used_before:-0} ))
+# How late the emulated part's falling edges reached the kernel over the same
+# span (the configuration's stamp_latency_max_s has to cover the slowest).
+slow=$(awk -F, '$2 == "mark" && $4 == "cal-start" { on = 1 } $2 == "mark" && $4 == "reload-end" { on = 0 }
+                on && $2 == "adc" && $3 == "pin_write" { n++; split($5, a, /[=;]/); if (a[2] + 0 > m) m = a[2] + 0 }
+                END { printf "%d DRDY/DOUT pin writes over 2 ms, slowest %.1f ms", n, m }' "$EMU_LOG")
 if [ "$comp_ok" -eq 0 ] && [ "$used" -eq 0 ]; then
-  pass hil-compensation "$comp; 0 corrupted ADC transfers used"
+  pass hil-compensation "$comp; 0 corrupted ADC transfers used; $slow"
 else
-  fail hil-compensation "$comp; $used ADC transfers the emulated part knew corrupted were followed by a rate-DAC frame" \
+  fail hil-compensation "$comp; $used ADC transfers the emulated part knew corrupted were followed by a rate-DAC frame; $slow" \
     "$(grep ',adc,transfer,corrupted' "$EMU_LOG" | tail -3)" "$(tail -3 /var/lib/gyrotc/record.csv)"
 fi
 
