@@ -10,9 +10,10 @@
 
 int main(int argc, char** argv) {
   CLI::App cli{
-      "gyrotc-emu: the simulated gyrotc board behind the kernel's own interfaces (CUSE spidev nodes, a gpio-sim\n"
-      "chip, a w1_therm tree), so that the unmodified daemon with hal = \"linux\" can be run and checked end\n"
-      "to end without the board: bring-up of a new configuration, and hardware-in-the-loop tests."};
+      "gyrotc-emu: the simulated gyrotc board behind the kernel's own interfaces\n"
+      "(CUSE spidev nodes, a gpio-sim chip, a w1_therm tree), so that the unmodified daemon with hal = \"linux\"\n"
+      "can be run and checked end to end without the board: bring-up of a new configuration, and\n"
+      "hardware-in-the-loop tests."};
   cli.set_version_flag("-V,--version", std::string("gyrotc-emu ") + gyrotc::app::kVersion);
   cli.require_subcommand(1);
   cli.footer("Run 'gyrotc-emu <command> --help' for the options of a command.");

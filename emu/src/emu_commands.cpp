@@ -7,6 +7,7 @@
 #include <string>
 #include <vector>
 
+#include "gyrotc/app/cli_main.hpp"
 #include "gyrotc/app/daemon/config.hpp"
 #include "gyrotc/app/errors.hpp"
 #include "gyrotc/emu/control_socket.hpp"
@@ -90,8 +91,8 @@ void add_report_command(CLI::App& app) {
         "settle", "Did the true casing temperature stay within --band of --setpoint for --hold seconds?");
     add_common(sub, *c);
     sub->add_option("--setpoint", *setpoint, "setpoint, C")->capture_default_str();
-    sub->add_option("--band", *band, "band, +/- C")->capture_default_str()->check(CLI::PositiveNumber);
-    sub->add_option("--hold", *hold, "seconds inside the band")->capture_default_str()->check(CLI::PositiveNumber);
+    sub->add_option("--band", *band, "band, +/- C")->capture_default_str()->check(app::positive_number());
+    sub->add_option("--hold", *hold, "seconds inside the band")->capture_default_str()->check(app::positive_number());
     sub->callback([c, setpoint, band, hold] {
       const auto events = read_event_log(c->log);
       const SettleResult r = find_settle(events, *setpoint, *band, *hold, after_mark(events, c->mark, c->log));

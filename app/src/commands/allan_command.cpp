@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "gyrotc/algorithms/stats/allan.hpp"
+#include "gyrotc/app/cli_main.hpp"
 #include "gyrotc/app/commands.hpp"
 #include "gyrotc/app/csv_table.hpp"
 #include "gyrotc/app/errors.hpp"
@@ -245,7 +246,7 @@ void add_allan_command(CLI::App& app) {
   cmd->add_option("--column", options->column, "rate column (deg/s)")->capture_default_str();
   cmd->add_option("--rate-hz", options->rate_hz,
                   "sample rate; default: (samples - 1) / span of the strictly increasing time_s column")
-      ->check(CLI::PositiveNumber);
+      ->check(positive_number());
   cmd->add_option("--plot", options->plot, "log-log plot with the slope lines (SVG only: FILE.svg)");
   cmd->add_option("--confidence", options->confidence, "confidence of the intervals")->capture_default_str();
   cmd->add_flag("--json", options->json,

@@ -16,6 +16,7 @@
 
 #include "gyrotc/algorithms/identify/series_identify.hpp"
 #include "gyrotc/algorithms/identify/static_identify.hpp"
+#include "gyrotc/app/cli_main.hpp"
 #include "gyrotc/app/commands.hpp"
 #include "gyrotc/app/csv_table.hpp"
 #include "gyrotc/app/errors.hpp"
@@ -388,7 +389,7 @@ void add_identify_command(CLI::App& app) {
   cmd->add_option("--r-th", options->r_th_k_per_w,
                   "casing-to-ambient thermal resistance, K/W, for the sensor_c target (converts the fitted "
                   "Joule term to r_ohm); default: that of the plant (--plant, else the default plant)")
-      ->check(CLI::PositiveNumber);
+      ->check(positive_number());
   cmd->add_flag("--json", options->json, "print the result as one JSON object");
   cmd->callback([options] { run_identify(*options); });
 }

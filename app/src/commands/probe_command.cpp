@@ -195,12 +195,12 @@ void add_probe_command(CLI::App& app) {
       "calibration the configuration names (file, model, temperature range, SHA-256). DACs are left at 0 A / "
       "mid-scale and the OPA548 disabled. Exit status 1 if any device or the calibration failed (warnings do "
       "not count).");
-  auto config_path = std::make_shared<std::string>();
+  auto config_path = std::make_shared<std::string>("/etc/gyrotc/gyrotc.toml");
   auto json = std::make_shared<bool>(false);
   cmd->add_option("-c,--config", *config_path,
                   "configuration file (TOML) with hal = \"linux\" | \"sim\", [devices], [tec], [sim]; see "
                   "deploy/config/gyrotc-sim.toml")
-      ->required();
+      ->capture_default_str();
   cmd->add_flag("--json", *json, "print the result as JSON instead of a table");
   cmd->callback([config_path, json] { run_probe(*config_path, *json); });
 }

@@ -2,6 +2,7 @@
 #include <memory>
 #include <string>
 
+#include "gyrotc/app/cli_main.hpp"
 #include "gyrotc/app/commands.hpp"
 #include "gyrotc/app/daemon/session.hpp"
 #include "gyrotc/app/errors.hpp"
@@ -24,7 +25,7 @@ void add_record_command(CLI::App& app) {
       ->capture_default_str();
   cmd->add_option("--out", options->record_csv, "CSV file to write")->required();
   cmd->add_option("--duration", options->duration_s, "stop after this many seconds (default: until a signal)")
-      ->check(CLI::PositiveNumber);
+      ->check(positive_number());
   cmd->add_option("--pid", *pid, "on: hold the setpoint; off: TEC off (a free temperature sweep)")
       ->check(CLI::IsMember({"on", "off"}))
       ->capture_default_str();

@@ -1,6 +1,7 @@
 // `gyrotc run`: the controller daemon (issue 6).
 #include <memory>
 
+#include "gyrotc/app/cli_main.hpp"
 #include "gyrotc/app/commands.hpp"
 #include "gyrotc/app/daemon/session.hpp"
 
@@ -20,7 +21,7 @@ void add_run_command(CLI::App& app) {
                   "[realtime], [failsafe]; see deploy/config/")
       ->capture_default_str();
   cmd->add_option("--duration", options->duration_s, "stop after this many seconds (default: until a signal)")
-      ->check(CLI::PositiveNumber);
+      ->check(positive_number());
   cmd->add_option("--controller", options->controller_file,
                   "a controller file (`gyrotc tune`'s) in place of the configuration's [control] gains");
   cmd->add_flag("--allow-non-rt", options->allow_non_rt,

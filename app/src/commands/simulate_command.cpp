@@ -163,10 +163,16 @@ nlohmann::json summary_json(const SimulateOptions& o, const std::string& calibra
   j["wall_s"] = wall_s;
   j["speedup"] = wall_s > 0.0 ? s.simulated_s / wall_s : 0.0;
   j["samples"] = r.counters.samples;
-  j["settle_s"] = s.settle_s >= 0.0 ? nlohmann::json(s.settle_s) : nlohmann::json(nullptr);
-  // null when it never settled: there is no in-band hold to judge, not a zero error.
-  j["max_abs_error_c_in_band"] =
-      s.settle_s >= 0.0 ? nlohmann::json(s.max_abs_error_c_in_band) : nlohmann::json(nullptr);
+  // Control figures only where something held the setpoint: with the
+  // controller off, or during the identification experiment, a "settle time"
+  // or an error from the setpoint means nothing.
+  const bool regulated = o.controller != "off" && o.profile != "tune";
+  if (regulated) {
+    j["settle_s"] = s.settle_s >= 0.0 ? nlohmann::json(s.settle_s) : nlohmann::json(nullptr);
+    // null when it never settled: there is no in-band hold to judge, not a zero error.
+    j["max_abs_error_c_in_band"] =
+        s.settle_s >= 0.0 ? nlohmann::json(s.max_abs_error_c_in_band) : nlohmann::json(nullptr);
+  }
   j["bias_uncompensated_max_abs_dps"] = s.bias_uncompensated_max_abs_dps;
   j["bias_compensated_max_abs_dps"] = s.bias_compensated_max_abs_dps;
   nlohmann::json segments = nlohmann::json::array();
@@ -176,7 +182,7 @@ nlohmann::json summary_json(const SimulateOptions& o, const std::string& calibra
     row["ambient_c"] = seg.ambient_start_c == seg.ambient_end_c
                            ? nlohmann::json(seg.ambient_end_c)
                            : nlohmann::json::array({seg.ambient_start_c, seg.ambient_end_c});
-    row["max_abs_error_c"] = seg.max_abs_error_c;
+    if (regulated) row["max_abs_error_c"] = seg.max_abs_error_c;
     row["tec_saturated"] = seg.tec_saturated;
     if (seg.has_bias) {
       row["bias_uncompensated_dps"] = seg.bias_uncompensated_dps;
@@ -202,12 +208,17 @@ void print_text(const nlohmann::json& j, const std::optional<std::string>& csv,
   std::printf("  simulated %s s in %s s wall (speedup %s x, %s Hz sampling)\n",
               num(j["simulated_s"], "%.0f").c_str(), num(j["wall_s"], "%.3f").c_str(),
               num(j["speedup"], "%.0f").c_str(), num(j["sample_rate_hz"], "%g").c_str());
-  std::printf("  settle_s                        %s\n", num(j["settle_s"], "%.0f").c_str());
-  if (j["max_abs_error_c_in_band"].is_null()) {
-    std::printf("  max_abs_error_c_in_band         n/a (never settled)\n");
+  if (j.contains("settle_s")) {
+    std::printf("  settle_s                        %s\n", num(j["settle_s"], "%.0f").c_str());
+    if (j["max_abs_error_c_in_band"].is_null()) {
+      std::printf("  max_abs_error_c_in_band         n/a (never settled)\n");
+    } else {
+      std::printf("  max_abs_error_c_in_band         %s C  (ambient -20..35 C, from settle_s + 300 s on)\n",
+                  num(j["max_abs_error_c_in_band"], "%.3f").c_str());
+    }
   } else {
-    std::printf("  max_abs_error_c_in_band         %s C  (ambient -20..35 C, from settle_s + 300 s on)\n",
-                num(j["max_abs_error_c_in_band"], "%.3f").c_str());
+    std::printf("  no setpoint held (%s): no settling time or control error\n",
+                j["controller"].get<std::string>().c_str());
   }
   std::printf("  bias_uncompensated_max_abs_dps  %s\n",
               num(j["bias_uncompensated_max_abs_dps"], "%.3f").c_str());
@@ -220,7 +231,8 @@ void print_text(const nlohmann::json& j, const std::optional<std::string>& csv,
                               ? num(seg["ambient_c"][0], "%.0f") + ".." + num(seg["ambient_c"][1], "%.0f")
                               : num(seg["ambient_c"], "%.0f");
     std::printf("  %-14s %-14s %16s %14s %14s %14s\n", seg["segment"].get<std::string>().c_str(),
-                ambient.c_str(), num(seg["max_abs_error_c"], "%.3f").c_str(),
+                ambient.c_str(),
+                seg.contains("max_abs_error_c") ? num(seg["max_abs_error_c"], "%.3f").c_str() : "-",
                 seg["tec_saturated"].get<bool>() ? "yes" : "no",
                 seg.contains("bias_uncompensated_dps") ? num(seg["bias_uncompensated_dps"], "%.3f").c_str() : "-",
                 seg.contains("bias_compensated_dps") ? num(seg["bias_compensated_dps"], "%.3f").c_str() : "-");

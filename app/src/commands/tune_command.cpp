@@ -131,12 +131,13 @@ void add_tune_command(CLI::App& app) {
   auto options = std::make_shared<TuneOptions>();
   CLI::App* cmd = app.add_subcommand(
       "tune",
-      "The unit's own temperature loop from its identification record (`gyrotc record --experiment tune`,\n"
-      "`gyrotc simulate --profile tune`): identifies its thermal model (TEC Peltier and Joule terms, casing\n"
-      "and shell, sensor lag and dead time, the OPA548 rail) from time_s, sensor_c, tec_a and ambient_c only,\n"
-      "reports it with uncertainties and fit quality, designs the PID (gains, separation band, feed-forward,\n"
-      "anti-windup rail limit) for a maximum sensitivity Ms <= 1.6, and writes a controller file for\n"
-      "`gyrotc simulate --controller FILE`, `gyrotc run --controller FILE` or [control] controller_file.");
+      "Design the unit's own temperature loop from its identification record. From a record of\n"
+      "`gyrotc record --experiment tune` or `gyrotc simulate --profile tune` (time_s, sensor_c, tec_a\n"
+      "and ambient_c only) it identifies the thermal model (TEC Peltier and Joule terms, casing and\n"
+      "shell, sensor lag and dead time, the OPA548 rail), reports it with uncertainties and fit quality,\n"
+      "designs the PID (gains, separation band, feed-forward, anti-windup rail limit) for a maximum\n"
+      "sensitivity Ms <= 1.6, and writes a controller file for `gyrotc simulate --controller FILE`,\n"
+      "`gyrotc run --controller FILE` or [control] controller_file.");
   cmd->add_option("--data", options->data, "the identification record (CSV)")->required();
   cmd->add_option("--out", options->out, "the controller file to write (TOML)")->required();
   cmd->add_option("--setpoint-c", options->setpoint_c,

@@ -2,10 +2,14 @@
 
 #include <CLI/CLI.hpp>
 
-// Every `gyrotc <command>` registers itself through one of these; main()
-// calls them in the order they appear in --help. Each command's callback
+// Every `gyrotc <command>` registers itself through one of these;
+// add_gyrotc_commands() calls them in the order of --help. Each callback
 // throws InputError / RuntimeFailure for main() to report.
 namespace gyrotc::app {
+
+// The whole `gyrotc` command line: its description, --version and every
+// command below, as main() runs it (and the CLI's tests check it).
+void add_gyrotc_commands(CLI::App& cli);
 
 void add_identify_command(CLI::App& app);
 void add_probe_command(CLI::App& app);
