@@ -19,10 +19,18 @@ namespace {
   throw RuntimeFailure(option + " " + path + ": " + why);
 }
 
+// Creates `dir` itself if it is missing, never a chain of parents: a
+// mistyped path is refused rather than built.
 void make_writable_dir(const fs::path& dir, const std::string& option, const std::string& shown) {
   std::error_code ec;
   if (!dir.empty() && !fs::is_directory(dir, ec)) {
-    fs::create_directories(dir, ec);
+    if (fs::exists(dir, ec)) refuse(option, shown, "'" + dir.string() + "' is not a folder");
+    const fs::path parent = dir.parent_path();
+    if (!parent.empty() && !fs::is_directory(parent, ec)) {
+      refuse(option, shown,
+             "the folder '" + parent.string() + "' does not exist (only the last folder of an output path is created)");
+    }
+    fs::create_directory(dir, ec);
     if (ec) refuse(option, shown, "cannot create the folder '" + dir.string() + "': " + ec.message());
   }
   const fs::path probe = dir.empty() ? fs::path(".") : dir;

@@ -1,4 +1,4 @@
-// Output paths are made ready before the work: missing folders are created,
+// Output paths are made ready before the work: a missing last folder is created,
 // places that cannot be written are refused at once, naming the option.
 #include "gyrotc/app/output_path.hpp"
 
@@ -41,12 +41,21 @@ std::string failure_of(void (*prepare)(const std::string&, const std::string&), 
 
 }  // namespace
 
-TEST_CASE("a file's missing parent folders are created") {
-  Scratch s("parents");
-  const fs::path file = s.dir / "a" / "b" / "plot.svg";
+TEST_CASE("a file's missing folder is created when its own parent exists") {
+  Scratch s("parent");
+  const fs::path file = s.dir / "a" / "plot.svg";
   prepare_output_file(file.string(), "--plot");
   CHECK(fs::is_directory(file.parent_path()));
   CHECK_FALSE(fs::exists(file));  // nothing is written before the work
+}
+
+TEST_CASE("a chain of missing folders is refused, naming the first one missing, and nothing is created") {
+  Scratch s("chain");
+  const std::string path = (s.dir / "a" / "b" / "plot.svg").string();
+  CHECK(failure_of(prepare_output_file, path, "--plot") ==
+        "--plot " + path + ": the folder '" + (s.dir / "a").string() +
+            "' does not exist (only the last folder of an output path is created)");
+  CHECK_FALSE(fs::exists(s.dir / "a"));
 }
 
 TEST_CASE("a file in the current folder needs no folder") {
@@ -58,8 +67,7 @@ TEST_CASE("a file whose parent is a file is refused, naming the option and the p
   std::ofstream(s.dir / "f") << "x";
   const std::string path = (s.dir / "f" / "x.svg").string();
   const std::string why = failure_of(prepare_output_file, path, "--plot");
-  CHECK(why.find("--plot " + path + ": cannot create the folder") == 0);
-  CHECK(why.find("Not a directory") != std::string::npos);
+  CHECK(why == "--plot " + path + ": '" + (s.dir / "f").string() + "' is not a folder");
 }
 
 TEST_CASE("a file name that is a folder is refused") {
@@ -67,9 +75,9 @@ TEST_CASE("a file name that is a folder is refused") {
   CHECK(failure_of(prepare_output_file, s.dir.string(), "--out") == "--out " + s.dir.string() + ": is a folder, not a file");
 }
 
-TEST_CASE("an output folder is created with its parents") {
+TEST_CASE("a missing output folder is created") {
   Scratch s("dir");
-  const fs::path dir = s.dir / "x" / "y";
+  const fs::path dir = s.dir / "x";
   prepare_output_dir(dir.string(), "--report");
   CHECK(fs::is_directory(dir));
 }
@@ -82,12 +90,12 @@ TEST_CASE("an output folder that exists as a file is refused") {
 }
 
 TEST_CASE("a folder the system will not create is refused before any work") {
-  CHECK(failure_of(prepare_output_dir, "/proc/gyrotc-no/such", "--out").find("--out /proc/gyrotc-no/such: cannot create") == 0);
+  CHECK(failure_of(prepare_output_dir, "/proc/gyrotc-no", "--out").find("--out /proc/gyrotc-no: cannot create") == 0);
 }
 
 TEST_CASE("simulate writes its time series, summary and plot into a folder that did not exist") {
   Scratch s("simulate");
-  const fs::path out = s.dir / "new" / "run";
+  const fs::path out = s.dir / "run";
   gyrotc::test::run_command(add_simulate_command, "simulate",
                             {"--profile", "table2", "--controller", "off", "--sample-rate-hz", "5", "--out",
                              out.string(), "--plot", (out / "run.svg").string()});
