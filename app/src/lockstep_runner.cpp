@@ -8,7 +8,7 @@
 #include <utility>
 
 #include "gyrotc/algorithms/fit/compensator.hpp"
-#include "gyrotc/app/daemon/session.hpp"
+#include "gyrotc/app/record_columns.hpp"
 #include "gyrotc/app/errors.hpp"
 #include "gyrotc/hal/chips/ads1251.hpp"
 

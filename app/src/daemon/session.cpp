@@ -23,6 +23,7 @@
 #include "gyrotc/app/daemon/systemd_notify.hpp"
 #include "gyrotc/app/errors.hpp"
 #include "gyrotc/app/output_path.hpp"
+#include "gyrotc/app/record_columns.hpp"
 #include "gyrotc/hal/chips/ads1251.hpp"
 #include "gyrotc/hal/linux/gpio_persistence.hpp"
 

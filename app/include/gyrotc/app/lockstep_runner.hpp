@@ -197,7 +197,7 @@ struct SimulationResult {
 void write_records_csv(const std::vector<RecordRow>& rows, const std::string& path);
 
 // Writes rows as the board's `gyrotc record` writes them (kRecordCsvHeader of
-// daemon/session.hpp): time_s, sensor_c, ambient_c (the ambient reading),
+// record_columns.hpp): time_s, sensor_c, ambient_c (the ambient reading),
 // gyro_mv, rate_dps_compensated, tec_a (commanded), setpoint_c, flags; no
 // true temperature of the plant. RuntimeFailure on a write error.
 void write_board_record_csv(const std::vector<RecordRow>& rows, const std::string& path);

@@ -36,9 +36,4 @@ void run_session(const SessionOptions& options);
 // unless the TEC path was made safe (or when another gyrotc holds the board).
 void safe_off_board(const DaemonConfig& config);
 
-// The CSV columns of OutputRows (also the header line): what `gyrotc fit`
-// reads from a recording (time_s, sensor_c, gyro_mv) plus the rest.
-inline constexpr const char* kRecordCsvHeader =
-    "time_s,sensor_c,ambient_c,gyro_mv,rate_dps_compensated,tec_a,setpoint_c,flags";
-
 }  // namespace gyrotc::app
