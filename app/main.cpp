@@ -1,7 +1,7 @@
 #include <CLI/CLI.hpp>
 
-#include "gyrotc/app/cli_main.hpp"
-#include "gyrotc/app/commands.hpp"
+#include "gyrotc/app/cli/cli_main.hpp"
+#include "gyrotc/app/cli/commands.hpp"
 
 int main(int argc, char** argv) {
   CLI::App cli;

@@ -4,8 +4,8 @@
 #include <benchmark/benchmark.h>
 
 #include "gyrotc/algorithms/fit/bias_model.hpp"
-#include "gyrotc/app/chamber_profile_file.hpp"
-#include "gyrotc/app/lockstep_runner.hpp"
+#include "gyrotc/app/formats/chamber_profile_file.hpp"
+#include "gyrotc/app/runtime/lockstep_runner.hpp"
 
 namespace {
 

@@ -10,7 +10,7 @@
 #include <vector>
 
 #include "gyrotc/algorithms/tune/experiment.hpp"
-#include "gyrotc/app/tuning.hpp"
+#include "gyrotc/app/workflows/tuning.hpp"
 
 namespace {
 

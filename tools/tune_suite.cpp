@@ -34,13 +34,13 @@
 
 #include "gyrotc/algorithms/fit/bias_model.hpp"
 #include "gyrotc/algorithms/model/plant.hpp"
-#include "gyrotc/app/chamber_profile_file.hpp"
-#include "gyrotc/app/controller_file.hpp"
-#include "gyrotc/app/errors.hpp"
-#include "gyrotc/app/lockstep_runner.hpp"
-#include "gyrotc/app/plant_file.hpp"
-#include "gyrotc/app/svg_plot.hpp"
-#include "gyrotc/app/tuning.hpp"
+#include "gyrotc/app/formats/chamber_profile_file.hpp"
+#include "gyrotc/app/formats/controller_file.hpp"
+#include "gyrotc/app/support/errors.hpp"
+#include "gyrotc/app/runtime/lockstep_runner.hpp"
+#include "gyrotc/app/formats/plant_file.hpp"
+#include "gyrotc/app/report/svg_plot.hpp"
+#include "gyrotc/app/workflows/tuning.hpp"
 
 namespace {
 

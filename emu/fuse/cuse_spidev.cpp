@@ -10,7 +10,7 @@
 #include <cstring>
 #include <vector>
 
-#include "gyrotc/app/errors.hpp"
+#include "gyrotc/app/support/errors.hpp"
 #include "gyrotc/emu/requester.hpp"
 
 namespace gyrotc::emu {

@@ -3,7 +3,7 @@
 
 #include <string>
 
-#include "gyrotc/app/cli_main.hpp"
+#include "gyrotc/app/cli/cli_main.hpp"
 #include "gyrotc/app/version.hpp"
 #include "gyrotc/emu/emu_commands.hpp"
 #include "run_command.hpp"

@@ -17,10 +17,10 @@
 #include <toml++/toml.h>
 
 #include "cuse_spidev.hpp"
-#include "gyrotc/app/board_config.hpp"
+#include "gyrotc/app/formats/board_config.hpp"
 #include "gyrotc/app/daemon/systemd_notify.hpp"
-#include "gyrotc/app/errors.hpp"
-#include "gyrotc/app/plant_file.hpp"
+#include "gyrotc/app/support/errors.hpp"
+#include "gyrotc/app/formats/plant_file.hpp"
 #include "gyrotc/emu/board_emulator.hpp"
 #include "gyrotc/emu/control_socket.hpp"
 #include "gyrotc/emu/emu_commands.hpp"

@@ -12,7 +12,7 @@
 #include <filesystem>
 
 #include "cuse_spidev.hpp"
-#include "gyrotc/app/errors.hpp"
+#include "gyrotc/app/support/errors.hpp"
 
 namespace gyrotc::emu {
 

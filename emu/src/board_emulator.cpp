@@ -11,8 +11,8 @@
 #include <sstream>
 #include <vector>
 
-#include "gyrotc/app/chamber_profile_file.hpp"
-#include "gyrotc/app/errors.hpp"
+#include "gyrotc/app/formats/chamber_profile_file.hpp"
+#include "gyrotc/app/support/errors.hpp"
 #include "gyrotc/emu/requester.hpp"
 #include "gyrotc/hal/chips/ad5060.hpp"
 

@@ -11,7 +11,7 @@
 #include <chrono>
 #include <cstring>
 
-#include "gyrotc/app/errors.hpp"
+#include "gyrotc/app/support/errors.hpp"
 
 namespace gyrotc::emu {
 

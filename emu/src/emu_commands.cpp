@@ -7,9 +7,9 @@
 #include <string>
 #include <vector>
 
-#include "gyrotc/app/cli_main.hpp"
+#include "gyrotc/app/cli/cli_main.hpp"
 #include "gyrotc/app/daemon/config.hpp"
-#include "gyrotc/app/errors.hpp"
+#include "gyrotc/app/support/errors.hpp"
 #include "gyrotc/emu/control_socket.hpp"
 #include "gyrotc/emu/hil_report.hpp"
 #include "gyrotc/hal/chips/ad5060.hpp"

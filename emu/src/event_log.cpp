@@ -3,7 +3,7 @@
 #include <cerrno>
 #include <cstring>
 
-#include "gyrotc/app/errors.hpp"
+#include "gyrotc/app/support/errors.hpp"
 
 namespace gyrotc::emu {
 

@@ -10,7 +10,7 @@
 #include <fstream>
 #include <sstream>
 
-#include "gyrotc/app/errors.hpp"
+#include "gyrotc/app/support/errors.hpp"
 
 namespace gyrotc::emu {
 

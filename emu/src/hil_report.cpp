@@ -7,8 +7,8 @@
 #include <limits>
 #include <sstream>
 
-#include "gyrotc/app/csv_table.hpp"
-#include "gyrotc/app/errors.hpp"
+#include "gyrotc/app/formats/csv_table.hpp"
+#include "gyrotc/app/support/errors.hpp"
 
 namespace gyrotc::emu {
 

@@ -6,7 +6,7 @@
 #include <cerrno>
 #include <cstring>
 
-#include "gyrotc/app/errors.hpp"
+#include "gyrotc/app/support/errors.hpp"
 
 namespace gyrotc::emu {
 

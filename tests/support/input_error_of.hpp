@@ -5,7 +5,7 @@
 #include <string>
 #include <utility>
 
-#include "gyrotc/app/errors.hpp"
+#include "gyrotc/app/support/errors.hpp"
 
 namespace gyrotc::test {
 

@@ -9,9 +9,9 @@
 #include <stdexcept>
 #include <string_view>
 
-#include "gyrotc/app/controller_file.hpp"
-#include "gyrotc/app/errors.hpp"
-#include "gyrotc/app/toml_table.hpp"
+#include "gyrotc/app/formats/controller_file.hpp"
+#include "gyrotc/app/support/errors.hpp"
+#include "gyrotc/app/formats/toml_table.hpp"
 
 namespace gyrotc::app {
 namespace {

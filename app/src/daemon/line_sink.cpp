@@ -11,7 +11,7 @@
 #include <cstring>
 #include <string>
 
-#include "gyrotc/app/errors.hpp"
+#include "gyrotc/app/support/errors.hpp"
 
 namespace gyrotc::app {
 namespace {

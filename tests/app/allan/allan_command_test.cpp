@@ -11,8 +11,8 @@
 #include <string>
 #include <vector>
 
-#include "gyrotc/app/commands.hpp"
-#include "gyrotc/app/errors.hpp"
+#include "gyrotc/app/cli/commands.hpp"
+#include "gyrotc/app/support/errors.hpp"
 #include "gyrotc_catch.hpp"
 #include "run_command.hpp"
 

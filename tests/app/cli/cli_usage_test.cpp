@@ -8,8 +8,8 @@
 
 #include <CLI/CLI.hpp>
 
-#include "gyrotc/app/cli_main.hpp"
-#include "gyrotc/app/commands.hpp"
+#include "gyrotc/app/cli/cli_main.hpp"
+#include "gyrotc/app/cli/commands.hpp"
 #include "gyrotc_catch.hpp"
 
 namespace {

@@ -2,7 +2,7 @@
 #include <string>
 
 #include "gyrotc/algorithms/fit/compensator.hpp"
-#include "gyrotc/app/controller.hpp"
+#include "gyrotc/app/runtime/controller.hpp"
 #include "gyrotc_catch.hpp"
 
 using namespace gyrotc::app;

@@ -1,8 +1,8 @@
-#include "gyrotc/app/csv_table.hpp"
+#include "gyrotc/app/formats/csv_table.hpp"
 
 #include <string>
 
-#include "gyrotc/app/errors.hpp"
+#include "gyrotc/app/support/errors.hpp"
 #include "gyrotc_catch.hpp"
 #include "input_error_of.hpp"
 

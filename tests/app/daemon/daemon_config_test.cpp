@@ -3,7 +3,7 @@
 #include <toml++/toml.h>
 
 #include "gyrotc/app/daemon/config.hpp"
-#include "gyrotc/app/errors.hpp"
+#include "gyrotc/app/support/errors.hpp"
 #include "gyrotc_catch.hpp"
 #include "test_paths.hpp"
 #include "input_error_of.hpp"

@@ -1,4 +1,4 @@
-#include "gyrotc/app/daemon/kernel_rt.hpp"
+#include "gyrotc/app/runtime/kernel_rt.hpp"
 
 #include "gyrotc_catch.hpp"
 

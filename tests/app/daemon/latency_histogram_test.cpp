@@ -1,4 +1,4 @@
-#include "gyrotc/app/daemon/latency_histogram.hpp"
+#include "gyrotc/app/runtime/latency_histogram.hpp"
 #include "gyrotc_catch.hpp"
 
 using gyrotc::app::LatencyHistogram;

@@ -11,7 +11,7 @@
 #include <string>
 
 #include "gyrotc/app/daemon/line_sink.hpp"
-#include "gyrotc/app/errors.hpp"
+#include "gyrotc/app/support/errors.hpp"
 #include "gyrotc_catch.hpp"
 #include "test_paths.hpp"
 

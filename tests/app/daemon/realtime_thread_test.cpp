@@ -4,8 +4,8 @@
 #include <atomic>
 #include <string>
 
-#include "gyrotc/app/daemon/realtime_thread.hpp"
-#include "gyrotc/app/errors.hpp"
+#include "gyrotc/app/runtime/realtime_thread.hpp"
+#include "gyrotc/app/support/errors.hpp"
 #include "gyrotc_catch.hpp"
 
 using gyrotc::app::RealtimeOptions;

@@ -2,7 +2,7 @@
 #include <cstdint>
 #include <thread>
 
-#include "gyrotc/app/daemon/seqlock.hpp"
+#include "gyrotc/app/runtime/seqlock.hpp"
 #include "gyrotc_catch.hpp"
 
 using gyrotc::app::Seqlock;

@@ -1,7 +1,7 @@
 #include <cstdint>
 #include <thread>
 
-#include "gyrotc/app/daemon/spsc_ring.hpp"
+#include "gyrotc/app/runtime/spsc_ring.hpp"
 #include "gyrotc_catch.hpp"
 
 using gyrotc::app::SpscRing;

@@ -8,7 +8,7 @@
 
 #include "gyrotc/algorithms/fit/compensator.hpp"
 #include "gyrotc/app/daemon/config.hpp"
-#include "gyrotc/app/daemon/realtime_runner.hpp"
+#include "gyrotc/app/runtime/realtime_runner.hpp"
 #include "gyrotc/hal/chips/ads1251.hpp"
 #include "gyrotc_catch.hpp"
 #include "test_paths.hpp"

@@ -2,7 +2,7 @@
 #include <filesystem>
 #include <string>
 
-#include "gyrotc/app/data_dir.hpp"
+#include "gyrotc/app/support/data_dir.hpp"
 #include "gyrotc_catch.hpp"
 #include "test_paths.hpp"
 

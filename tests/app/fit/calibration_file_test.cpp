@@ -5,9 +5,9 @@
 
 #include "gyrotc/algorithms/fit/bp_network_fit.hpp"
 #include "gyrotc/algorithms/fit/fit_method.hpp"
-#include "gyrotc/app/calibration_file.hpp"
-#include "gyrotc/app/csv_table.hpp"
-#include "gyrotc/app/errors.hpp"
+#include "gyrotc/app/formats/calibration_file.hpp"
+#include "gyrotc/app/formats/csv_table.hpp"
+#include "gyrotc/app/support/errors.hpp"
 #include "gyrotc_catch.hpp"
 #include "test_paths.hpp"
 #include "input_error_of.hpp"

@@ -1,12 +1,12 @@
 // Which calibration a configuration runs with: loaded as the daemon loads it,
 // described as probe and the daemon's log print it.
-#include "gyrotc/app/calibration_in_use.hpp"
+#include "gyrotc/app/formats/calibration_in_use.hpp"
 
 #include <fstream>
 #include <string>
 
-#include "gyrotc/app/errors.hpp"
-#include "gyrotc/app/sha256.hpp"
+#include "gyrotc/app/support/errors.hpp"
+#include "gyrotc/app/support/sha256.hpp"
 #include "gyrotc_catch.hpp"
 #include "test_paths.hpp"
 

@@ -10,9 +10,9 @@
 #include <vector>
 
 #include "gyrotc/algorithms/fit/bias_model.hpp"
-#include "gyrotc/app/calibration_file.hpp"
-#include "gyrotc/app/commands.hpp"
-#include "gyrotc/app/errors.hpp"
+#include "gyrotc/app/formats/calibration_file.hpp"
+#include "gyrotc/app/cli/commands.hpp"
+#include "gyrotc/app/support/errors.hpp"
 #include "gyrotc_catch.hpp"
 #include "test_paths.hpp"
 #include "input_error_of.hpp"

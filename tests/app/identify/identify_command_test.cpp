@@ -10,9 +10,9 @@
 #include <vector>
 
 #include "gyrotc/algorithms/identify/record_generator.hpp"
-#include "gyrotc/app/commands.hpp"
-#include "gyrotc/app/errors.hpp"
-#include "gyrotc/app/plant_file.hpp"
+#include "gyrotc/app/cli/commands.hpp"
+#include "gyrotc/app/support/errors.hpp"
+#include "gyrotc/app/formats/plant_file.hpp"
 #include "gyrotc_catch.hpp"
 #include "test_paths.hpp"
 #include "run_command.hpp"

@@ -1,13 +1,13 @@
 // Output paths are made ready before the work: a missing last folder is created,
 // places that cannot be written are refused at once, naming the option.
-#include "gyrotc/app/output_path.hpp"
+#include "gyrotc/app/support/output_path.hpp"
 
 #include <filesystem>
 #include <fstream>
 #include <string>
 
-#include "gyrotc/app/commands.hpp"
-#include "gyrotc/app/errors.hpp"
+#include "gyrotc/app/cli/commands.hpp"
+#include "gyrotc/app/support/errors.hpp"
 #include "gyrotc_catch.hpp"
 #include "test_paths.hpp"
 #include "run_command.hpp"

@@ -5,7 +5,7 @@
 #include <string>
 #include <vector>
 
-#include "gyrotc/app/svg_plot.hpp"
+#include "gyrotc/app/report/svg_plot.hpp"
 #include "gyrotc_catch.hpp"
 
 using namespace gyrotc::app::plot;

@@ -13,8 +13,8 @@
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
 
-#include "gyrotc/app/commands.hpp"
-#include "gyrotc/app/errors.hpp"
+#include "gyrotc/app/cli/commands.hpp"
+#include "gyrotc/app/support/errors.hpp"
 #include "gyrotc_catch.hpp"
 #include "test_paths.hpp"
 

@@ -10,7 +10,7 @@
 
 #include "gyrotc/app/daemon/config.hpp"
 #include "gyrotc/app/daemon/session.hpp"
-#include "gyrotc/app/errors.hpp"
+#include "gyrotc/app/support/errors.hpp"
 #include "gyrotc_catch.hpp"
 
 using namespace gyrotc::app;

@@ -2,9 +2,9 @@
 #include <fstream>
 #include <string>
 
-#include "gyrotc/app/controller_file.hpp"
+#include "gyrotc/app/formats/controller_file.hpp"
 #include "gyrotc/app/daemon/config.hpp"
-#include "gyrotc/app/errors.hpp"
+#include "gyrotc/app/support/errors.hpp"
 #include "gyrotc_catch.hpp"
 #include "test_paths.hpp"
 #include "input_error_of.hpp"

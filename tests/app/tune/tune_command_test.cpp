@@ -13,11 +13,11 @@
 #include <string>
 #include <vector>
 
-#include "gyrotc/app/commands.hpp"
-#include "gyrotc/app/controller_file.hpp"
-#include "gyrotc/app/errors.hpp"
-#include "gyrotc/app/lockstep_runner.hpp"
-#include "gyrotc/app/tuning.hpp"
+#include "gyrotc/app/cli/commands.hpp"
+#include "gyrotc/app/formats/controller_file.hpp"
+#include "gyrotc/app/support/errors.hpp"
+#include "gyrotc/app/runtime/lockstep_runner.hpp"
+#include "gyrotc/app/workflows/tuning.hpp"
 #include "gyrotc_catch.hpp"
 #include "test_paths.hpp"
 #include "input_error_of.hpp"

@@ -2,8 +2,8 @@
 #include <vector>
 
 #include "gyrotc/algorithms/fit/bias_model.hpp"
-#include "gyrotc/app/lockstep_runner.hpp"
-#include "gyrotc/app/plant_file.hpp"
+#include "gyrotc/app/runtime/lockstep_runner.hpp"
+#include "gyrotc/app/formats/plant_file.hpp"
 #include "gyrotc_catch.hpp"
 
 using namespace gyrotc::app;

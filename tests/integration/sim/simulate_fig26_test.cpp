@@ -6,8 +6,8 @@
 #include <string>
 
 #include "gyrotc/algorithms/fit/bias_model.hpp"
-#include "gyrotc/app/chamber_profile_file.hpp"
-#include "gyrotc/app/lockstep_runner.hpp"
+#include "gyrotc/app/formats/chamber_profile_file.hpp"
+#include "gyrotc/app/runtime/lockstep_runner.hpp"
 #include "gyrotc_catch.hpp"
 #include "test_paths.hpp"
 

@@ -10,7 +10,7 @@
 
 #include "gyrotc/algorithms/model/chamber_profile.hpp"
 #include "gyrotc/algorithms/model/plant.hpp"
-#include "gyrotc/app/board_config.hpp"
+#include "gyrotc/app/formats/board_config.hpp"
 #include "gyrotc/emu/adc_emulator.hpp"
 #include "gyrotc/emu/event_log.hpp"
 #include "gyrotc/emu/pin_io.hpp"

@@ -4,9 +4,9 @@
 
 #include <toml++/toml.h>
 
-#include "gyrotc/app/board_config.hpp"
-#include "gyrotc/app/controller.hpp"
-#include "gyrotc/app/daemon/realtime_thread.hpp"
+#include "gyrotc/app/formats/board_config.hpp"
+#include "gyrotc/app/runtime/controller.hpp"
+#include "gyrotc/app/runtime/realtime_thread.hpp"
 
 // The daemon's configuration file (`gyrotc run`, `record`, `safe-off`): the
 // board part (hal, [devices], [tec], [sim]: parse_board_config) plus

@@ -1,0 +1,70 @@
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "gyrotc/algorithms/model/plant.hpp"
+#include "gyrotc/algorithms/tune/controller_design.hpp"
+#include "gyrotc/algorithms/tune/experiment.hpp"
+#include "gyrotc/algorithms/tune/thermal_identify.hpp"
+#include "gyrotc/app/formats/controller_file.hpp"
+#include "gyrotc/app/runtime/lockstep_runner.hpp"
+
+// What `gyrotc tune` does behind its command line (issue 23): read the
+// unit's identification record, identify its thermal model, design its
+// controller, and put both into a controller file and a report. The robustness
+// suite (tools/tune_suite) and the benchmark call the same functions.
+namespace gyrotc::app {
+
+struct TuneInput {
+  tune::TuneRecord record;
+  double setpoint_c = 55.0;  // the record's setpoint_c column when it has one
+  std::string source;        // the file, for messages
+  double experiment_scale = 1.0;  // the record's experiment was ExperimentPlan::scaled by this
+};
+
+// Reads time_s, sensor_c, tec_a and, when present, ambient_c ("nan" before
+// the first ambient reading) and setpoint_c; nothing else (a simulated
+// record's casing_c, die_c and tec_v are the plant's truth, which a board
+// does not have). InputError naming the file: a missing column (and what
+// tune needs), a bad cell (its line).
+TuneInput read_tune_record(const std::string& path);
+
+struct TuneResult {
+  tune::ThermalFit fit;
+  tune::DesignSpec spec;
+  tune::ControllerDesign design;
+  ControllerFile controller;
+  std::vector<std::string> warnings;
+  double identify_s = 0.0;
+  double design_s = 0.0;
+};
+
+// InputError naming the source when the record cannot be tuned from (what is
+// missing: excitation, response, a continuous record, ...).
+TuneResult tune_from_record(const TuneInput& input);
+
+// The room of `gyrotc simulate --profile tune`: room_c, constant, for as long
+// as the experiment can take.
+model::ChamberProfile tune_experiment_room(double room_c, const tune::ExperimentPlan& plan = {});
+
+// The identification experiment on the simulated board in lockstep, as
+// `gyrotc simulate --profile tune` runs it: every node and the room at
+// room_c, the TEC limited to the plant's current limit, an ambient DS18B20,
+// the seed's reference calibration; ends with the experiment.
+// write_board_record_csv(rows) is the record `gyrotc tune` reads.
+SimulationResult simulate_tune_experiment(const model::PlantParams& plant, double room_c, double sample_rate_hz,
+                                          const tune::ExperimentPlan& plan = {});
+
+// The plant's physical minimum warm-up (issue 23): every node at from_c, the
+// TEC commanded at the stage's current limit (the plant clips it at its
+// rails), until the casing reaches target_c; -1 when it does not within 4 h.
+double plant_minimum_warm_up_s(const model::PlantParams& plant, double from_c, double target_c);
+
+// The [identified] and [design] tables written below the controller.
+std::string tune_informational_toml(const TuneResult& result, const std::string& source);
+nlohmann::json tune_json(const TuneResult& result);
+
+}  // namespace gyrotc::app

@@ -1,0 +1,559 @@
+// `gyrotc fit`: turns a chamber run (Table 2-like CSV, or a time series binned
+// by temperature) into a zero-bias model, reports in-sample and leave-one-out
+// errors, compares the methods side by side, and writes the calibration file.
+
+#include <nlohmann/json.hpp>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <map>
+#include <optional>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "gyrotc/algorithms/fit/compensator.hpp"
+#include "gyrotc/algorithms/fit/cross_validation.hpp"
+#include "gyrotc/algorithms/fit/fit_method.hpp"
+#include "gyrotc/algorithms/stats/summary.hpp"
+#include "gyrotc/app/formats/calibration_file.hpp"
+#include "gyrotc/app/cli/commands.hpp"
+#include "gyrotc/app/formats/csv_table.hpp"
+#include "gyrotc/app/support/errors.hpp"
+#include "gyrotc/app/support/progress.hpp"
+#include "gyrotc/app/support/output_path.hpp"
+
+namespace gyrotc::app {
+namespace {
+
+using nlohmann::ordered_json;
+
+struct FitOptions {
+  std::string data;
+  std::string method = "auto";
+  std::vector<int> orders;
+  std::vector<double> breakpoints_c;
+  std::string continuity = "value";
+  std::string criterion = "loo";
+  std::string penalty = "jumps";
+  double dof = 0.0;
+  std::string out;
+  bool json = false;
+  bool compare = false;
+  bool nested = true;
+  std::uint64_t seed = 1;
+  std::vector<int> hidden = {10, 10, 10};
+  int restarts = 3;
+  double bin_width_c = 1.0;
+  double scale_mv_per_dps = fit::Compensator::kSeedScaleMvPerDps;
+};
+
+struct Points {
+  std::vector<double> temp_c;
+  std::vector<double> gyro_mv;
+  std::string kind;  // "table" or "time series (N samples, W C bins)"
+};
+
+// A Table 2-like file: one row per temperature.
+Points read_table(const CsvTable& table) {
+  Points p;
+  p.temp_c = table.numbers("temp_c");
+  p.gyro_mv = table.numbers("gyro_mv");
+  std::map<double, std::size_t> seen;  // temperature -> row
+  for (std::size_t r = 0; r < p.temp_c.size(); ++r) {
+    const auto [it, fresh] = seen.emplace(p.temp_c[r], r);
+    if (!fresh) {
+      char buf[64];
+      std::snprintf(buf, sizeof buf, "%g", p.temp_c[r]);
+      throw InputError(table.path() + ":" + std::to_string(table.line_of(r)) + ": temp_c " + buf +
+                       " repeats the temperature of line " + std::to_string(table.line_of(it->second)) +
+                       " (average repeated runs into one row)");
+    }
+  }
+  p.kind = "table";
+  return p;
+}
+
+// A recording (time_s, sensor_c, gyro_mv): averaged in temperature bins.
+Points read_series(const CsvTable& table, double bin_width_c) {
+  table.require_increasing("time_s");
+  const std::vector<double> temp = table.numbers("sensor_c");
+  const std::vector<double> gyro = table.numbers("gyro_mv");
+  struct Bin {
+    double temp_sum = 0.0;
+    double gyro_sum = 0.0;
+    std::size_t count = 0;
+  };
+  std::map<long long, Bin> bins;
+  for (std::size_t i = 0; i < temp.size(); ++i) {
+    Bin& b = bins[static_cast<long long>(std::floor(temp[i] / bin_width_c))];
+    b.temp_sum += temp[i];
+    b.gyro_sum += gyro[i];
+    ++b.count;
+  }
+  Points p;
+  for (const auto& [key, b] : bins) {
+    p.temp_c.push_back(b.temp_sum / static_cast<double>(b.count));
+    p.gyro_mv.push_back(b.gyro_sum / static_cast<double>(b.count));
+  }
+  char buf[96];
+  std::snprintf(buf, sizeof buf, "time series, %zu samples in %g C bins", temp.size(), bin_width_c);
+  p.kind = buf;
+  return p;
+}
+
+Points read_points(const FitOptions& o) {
+  const CsvTable table = CsvTable::read(o.data);
+  if (table.has("temp_c")) return read_table(table);
+  if (table.has("sensor_c")) return read_series(table, o.bin_width_c);
+  std::string have;
+  for (const auto& c : table.columns()) have += (have.empty() ? "" : ", ") + c;
+  throw InputError(o.data + ": missing column 'temp_c' (a table with temp_c, gyro_mv) or 'sensor_c' (a "
+                            "time series with time_s, sensor_c, gyro_mv); columns: " + have);
+}
+
+fit::Continuity parse_continuity(const std::string& name) {
+  if (name == "none") return fit::Continuity::none;
+  if (name == "value") return fit::Continuity::value;
+  if (name == "slope") return fit::Continuity::slope;
+  throw InputError("--continuity: expected none, value or slope, got '" + name + "'");
+}
+
+fit::SmoothingOptions smoothing_options(const FitOptions& o) {
+  fit::SmoothingOptions so;
+  if (o.criterion == "gcv") so.criterion = fit::SmoothingCriterion::gcv;
+  else if (o.criterion != "loo") throw InputError("--criterion: expected loo or gcv, got '" + o.criterion + "'");
+  if (o.penalty == "curvature") so.penalty = fit::SmoothingPenalty::curvature;
+  else if (o.penalty != "jumps") throw InputError("--penalty: expected jumps or curvature, got '" + o.penalty + "'");
+  so.dof = o.dof;
+  return so;
+}
+
+fit::MethodOptions method_options(const FitOptions& o, fit::Method m) {
+  fit::MethodOptions mo;
+  mo.method = m;
+  mo.orders = o.orders;
+  mo.breakpoints_c = o.breakpoints_c;
+  mo.continuity = parse_continuity(o.continuity);
+  mo.smoothing = smoothing_options(o);
+  mo.bp.seed = o.seed;
+  mo.bp.hidden = o.hidden;
+  mo.bp.restarts = o.restarts;
+  return mo;
+}
+
+// Runs a fit; the algorithms' invalid_argument is the user's data or options.
+fit::MethodFit run_fit(const Points& p, const fit::MethodOptions& mo, const std::string& path) {
+  try {
+    return fit::fit_method(p.temp_c, p.gyro_mv, mo);
+  } catch (const std::invalid_argument& e) {
+    const std::string name(fit::method_name(mo.method));
+    const std::string what = e.what();
+    throw InputError(path + ": " + (what.rfind(name, 0) == 0 ? what : name + ": " + what));
+  }
+}
+
+std::vector<double> run_nested(const Points& p, const fit::MethodOptions& mo, const std::string& path) {
+  try {
+    return fit::nested_loo_residuals(p.temp_c, p.gyro_mv, mo);
+  } catch (const std::invalid_argument& e) {
+    throw InputError(path + ": nested LOO: " + e.what());
+  }
+}
+
+// Mean cost of one Compensator::compensate call over a temperature sweep.
+double ns_per_sample(const fit::BiasModel& model, double scale) {
+  const fit::Compensator comp(model, scale);
+  const double lo = model.t_min_c();
+  const double span = model.t_max_c() - lo;
+  volatile double sink = 0.0;
+  std::size_t calls = 0;
+  const auto start = std::chrono::steady_clock::now();
+  std::chrono::duration<double> elapsed{};
+  do {
+    double acc = 0.0;
+    for (int i = 0; i < 4096; ++i) acc += comp.compensate(80.0, lo + span * (i / 4095.0)).rate_dps;
+    sink = sink + acc;
+    calls += 4096;
+    elapsed = std::chrono::steady_clock::now() - start;
+  } while (elapsed.count() < 0.02);
+  return elapsed.count() * 1e9 / static_cast<double>(calls);
+}
+
+ordered_json polynomial_json(const fit::Polynomial& p) {
+  return ordered_json{{"center_c", p.center_c},
+                      {"scale_c", p.scale_c},
+                      {"range_c", {p.t_min_c, p.t_max_c}},
+                      {"coefficients_mv", p.coefficients_mv}};
+}
+
+ordered_json model_json(const fit::BiasModel& m) {
+  ordered_json j{{"kind", m.kind_name()}, {"range_c", {m.t_min_c(), m.t_max_c()}}, {"parameters", m.parameter_count()}};
+  if (const auto* p = m.as_polynomial()) {
+    j["polynomial"] = polynomial_json(*p);
+  } else if (const auto* pw = m.as_piecewise()) {
+    ordered_json segs = ordered_json::array();
+    for (const auto& s : pw->segments) segs.push_back(polynomial_json(s));
+    j["breakpoints_c"] = pw->breakpoints_c;
+    j["segments"] = segs;
+  } else if (const auto* sp = m.as_spline()) {
+    j["knots_c"] = sp->knots_c;
+    j["values_mv"] = sp->values_mv;
+    j["second_derivatives"] = sp->second_derivatives;
+  } else if (const auto* net = m.as_bp_network()) {
+    ordered_json layers = ordered_json::array();
+    for (std::size_t i = 0; i < net->layers.size(); ++i) {
+      const auto& l = net->layers[i];
+      layers.push_back({{"inputs", l.inputs},
+                        {"outputs", l.outputs},
+                        {"activation", i + 1 == net->layers.size() ? "linear" : "tansig"},
+                        {"weights", l.weights},
+                        {"biases", l.biases}});
+    }
+    j["out_center_mv"] = net->out_center_mv;
+    j["out_half_range_mv"] = net->out_half_range_mv;
+    j["layers"] = layers;
+  }
+  return j;
+}
+
+std::string numbers_text(const std::vector<double>& v) {
+  std::string s = "[";
+  char buf[40];
+  for (std::size_t i = 0; i < v.size(); ++i) {
+    std::snprintf(buf, sizeof buf, "%s%.10g", i ? ", " : "", v[i]);
+    s += buf;
+  }
+  return s + "]";
+}
+
+// Upper minus lower segment at breakpoint i.
+double breakpoint_step_mv(const fit::Piecewise& pw, std::size_t i) {
+  const double b = pw.breakpoints_c[i];
+  return fit::evaluate(pw.segments[i + 1], b) - fit::evaluate(pw.segments[i], b);
+}
+
+double largest_step_mv(const fit::BiasModel& m) {
+  double worst = 0.0;
+  if (const auto* pw = m.as_piecewise()) {
+    for (std::size_t i = 0; i < pw->breakpoints_c.size(); ++i) worst = std::max(worst, std::fabs(breakpoint_step_mv(*pw, i)));
+  }
+  return worst;
+}
+
+ordered_json candidates_json(const std::vector<fit::Candidate>& candidates, double s) {
+  ordered_json list = ordered_json::array();
+  for (const auto& c : candidates) {
+    list.push_back({{"name", c.name},
+                    {"dof", c.score.dof},
+                    {"loo_rms_dps", std::sqrt(c.score.mse) / s},
+                    {"loo_max_abs_dps", c.loo_max_abs / s},
+                    {"loo_mse_se_dps2", c.score.se / (s * s)},
+                    {"within_one_se", c.within_one_se},
+                    {"chosen", c.chosen}});
+  }
+  return list;
+}
+
+void print_candidates(const std::vector<fit::Candidate>& candidates, double s) {
+  if (candidates.empty()) return;
+  std::printf("candidates (LOO, deg/s; * within one standard error of the best, > chosen):\n");
+  std::printf("  %-10s %7s %9s %9s %12s\n", "candidate", "dof", "loo_rms", "loo_max", "mse_se");
+  for (const auto& c : candidates) {
+    std::printf("%c%c%-10s %7.2f %9.4f %9.4f %12.3g\n", c.chosen ? '>' : ' ', c.within_one_se ? '*' : ' ',
+                c.name.c_str(), c.score.dof, std::sqrt(c.score.mse) / s, c.loo_max_abs / s, c.score.se / (s * s));
+  }
+}
+
+void print_model_text(const fit::BiasModel& m) {
+  auto poly = [](const fit::Polynomial& p, const char* indent) {
+    std::printf("%sT in [%g, %g] C: center_c %g, scale_c %g, coefficients_mv %s\n", indent, p.t_min_c,
+                p.t_max_c, p.center_c, p.scale_c, numbers_text(p.coefficients_mv).c_str());
+  };
+  if (const auto* p = m.as_polynomial()) {
+    std::printf("model: polynomial\n");
+    poly(*p, "  ");
+  } else if (const auto* pw = m.as_piecewise()) {
+    std::printf("model: piecewise, breakpoints_c %s\n", numbers_text(pw->breakpoints_c).c_str());
+    for (const auto& s : pw->segments) poly(s, "  ");
+    // Independent segments step at the breakpoints: show each step.
+    for (std::size_t i = 0; i < pw->breakpoints_c.size(); ++i) {
+      std::printf("  step at %g C: %+.3f mV\n", pw->breakpoints_c[i], breakpoint_step_mv(*pw, i));
+    }
+  } else if (const auto* sp = m.as_spline()) {
+    std::printf("model: cubic spline, %zu knots %g .. %g C, continuous with its first two derivatives "
+                "(--json or --out for the values)\n",
+                sp->knots_c.size(), sp->knots_c.front(), sp->knots_c.back());
+  } else if (const auto* net = m.as_bp_network()) {
+    std::printf("model: bp_network, %zu weights and biases (--json or --out for the values)\n",
+                m.parameter_count());
+    (void)net;
+  }
+}
+
+void run_single(const FitOptions& o) {
+  if (!o.out.empty()) prepare_output_file(o.out, "--out");
+  const auto method = fit::parse_method(o.method);
+  if (!method) {
+    throw InputError("--method: expected poly, piecewise, spline, smooth, bpnn, paper or auto, got '" + o.method + "'");
+  }
+  const Points p = read_points(o);
+  const fit::MethodOptions mo = method_options(o, *method);
+  Progress progress(o.nested ? "fitting, then nested leave-one-out" : "fitting");
+  const fit::MethodFit f = run_fit(p, mo, o.data);
+  progress.update(0.5);
+  // Without a choice the nested LOO is the plain LOO: no second pass.
+  std::vector<double> nested;
+  if (o.nested && fit::method_chooses(mo)) nested = run_nested(p, mo, o.data);
+  progress.finish();
+  const double s = o.scale_mv_per_dps;
+  std::optional<double> nested_max;
+  std::optional<double> nested_rms;
+  if (o.nested) {
+    nested_max = nested.empty() ? f.errors.loo_max_abs / s : stats::max_abs(nested) / s;
+    nested_rms = nested.empty() ? f.errors.loo_rms / s : stats::rms(nested) / s;
+  }
+  const auto [lo, hi] = std::minmax_element(p.temp_c.begin(), p.temp_c.end());
+  if (!o.out.empty()) {
+    CalibrationSource src{o.data,
+                          o.method,
+                          f.structure,
+                          p.temp_c.size(),
+                          f.errors.in_sample_max_abs / s,
+                          f.errors.in_sample_rms / s,
+                          f.errors.loo_max_abs / s,
+                          f.errors.loo_rms / s,
+                          nested_max,
+                          nested_rms};
+    save_calibration(f.model, o.out, s, src);
+  }
+  if (o.json) {
+    ordered_json j{{"method", o.method},
+                   {"fitted", fit::method_name(f.method)},
+                   {"structure", f.structure},
+                   {"choice", f.choice},
+                   {"data", o.data},
+                   {"input", p.kind},
+                   {"points", p.temp_c.size()},
+                   {"range_c", {*lo, *hi}},
+                   {"scale_mv_per_dps", s}};
+    if (nested_max) {
+      j["nested_loo_max_abs_dps"] = *nested_max;
+      j["nested_loo_rms_dps"] = *nested_rms;
+    }
+    j["loo_max_abs_dps"] = f.errors.loo_max_abs / s;
+    j["loo_rms_dps"] = f.errors.loo_rms / s;
+    j["in_sample_max_abs_dps"] = f.errors.in_sample_max_abs / s;
+    j["in_sample_rms_dps"] = f.errors.in_sample_rms / s;
+    j["dof"] = f.dof;
+    j["condition_number"] = f.condition_number;
+    j["largest_breakpoint_step_mv"] = largest_step_mv(f.model);
+    if (!f.candidates.empty()) j["candidates"] = candidates_json(f.candidates, s);
+    j["model"] = model_json(f.model);
+    if (!o.out.empty()) j["out"] = o.out;
+    std::printf("%s\n", j.dump(2).c_str());
+    return;
+  }
+  std::printf("method: %s -> %s (%s)\n", o.method.c_str(), std::string(fit::method_name(f.method)).c_str(),
+              f.structure.c_str());
+  if (!f.choice.empty()) std::printf("choice: %s\n", f.choice.c_str());
+  std::printf("points: %zu (%s, %g .. %g C), scale %g mV/(deg/s)\n", p.temp_c.size(), p.kind.c_str(), *lo, *hi, s);
+  if (nested_max) {
+    std::printf("held-out error, nested LOO (every choice repeated without the point):\n");
+    std::printf("nested_loo_max_abs_dps: %.4f\n", *nested_max);
+    std::printf("nested_loo_rms_dps: %.4f\n", *nested_rms);
+  }
+  std::printf("loo_max_abs_dps: %.4f\n", f.errors.loo_max_abs / s);
+  std::printf("loo_rms_dps: %.4f\n", f.errors.loo_rms / s);
+  std::printf("in_sample_max_abs_dps: %.4f\n", f.errors.in_sample_max_abs / s);
+  std::printf("in_sample_rms_dps: %.4f\n", f.errors.in_sample_rms / s);
+  std::printf("effective_parameters: %.2f\n", f.dof);
+  if (f.condition_number > 0.0) std::printf("condition_number: %.4g\n", f.condition_number);
+  std::printf("stored_numbers: %zu\n", f.model.parameter_count());
+  print_candidates(f.candidates, s);
+  print_model_text(f.model);
+  if (!o.out.empty()) std::printf("wrote %s\n", o.out.c_str());
+}
+
+void run_compare(const FitOptions& o) {
+  const Points p = read_points(o);
+  const double s = o.scale_mv_per_dps;
+  struct Row {
+    std::string name;
+    std::string structure;
+    double dof;
+    fit::FitErrors errors;
+    bool has_loo;
+    double nested_max = NAN;
+    double nested_rms = NAN;
+    double ns;
+  };
+  std::vector<Row> rows;
+  {
+    // The seed's printed coefficients (with the erratum): fitted by the seed's
+    // authors to these points, so there is no held-out figure.
+    const fit::BiasModel ref = fit::BiasModel::paper_reference();
+    const std::vector<double> r = fit::residuals(ref, p.temp_c, p.gyro_mv);
+    rows.push_back({"paper_printed", "seed's printed coefficients, erratum applied",
+                    static_cast<double>(ref.parameter_count()), fit::fit_errors(r, r), false, NAN, NAN,
+                    ns_per_sample(ref, s)});
+  }
+  const fit::Method methods[] = {fit::Method::paper,     fit::Method::polynomial, fit::Method::piecewise,
+                                 fit::Method::spline,    fit::Method::smoothing,  fit::Method::bp_network,
+                                 fit::Method::automatic};
+  Progress progress(o.nested ? "fitting every method, with nested leave-one-out" : "fitting every method");
+  std::size_t done = 0;
+  std::vector<fit::Candidate> auto_candidates;
+  for (fit::Method m : methods) {
+    fit::MethodOptions mo = method_options(o, m);
+    if (m != fit::Method::piecewise) mo.breakpoints_c.clear();
+    if (m != fit::Method::piecewise && m != fit::Method::polynomial) mo.orders.clear();
+    if (m == fit::Method::polynomial && mo.orders.size() > 1) mo.orders.clear();
+    const fit::MethodFit f = run_fit(p, mo, o.data);
+    Row row{std::string(fit::method_name(m)), f.structure, f.dof, f.errors, true, NAN, NAN, ns_per_sample(f.model, s)};
+    if (o.nested) {
+      if (fit::method_chooses(mo)) {
+        const std::vector<double> nested = run_nested(p, mo, o.data);
+        row.nested_max = stats::max_abs(nested);
+        row.nested_rms = stats::rms(nested);
+      } else {
+        row.nested_max = f.errors.loo_max_abs;
+        row.nested_rms = f.errors.loo_rms;
+      }
+    }
+    if (m == fit::Method::automatic) auto_candidates = f.candidates;
+    rows.push_back(std::move(row));
+    progress.update(static_cast<double>(++done) / std::size(methods));
+  }
+  progress.finish();
+  if (o.json) {
+    ordered_json list = ordered_json::array();
+    for (const Row& r : rows) {
+      ordered_json j{{"method", r.name}, {"structure", r.structure}, {"dof", r.dof}};
+      if (o.nested) {
+        j["nested_loo_max_abs_dps"] = std::isnan(r.nested_max) ? ordered_json(nullptr) : ordered_json(r.nested_max / s);
+        j["nested_loo_rms_dps"] = std::isnan(r.nested_rms) ? ordered_json(nullptr) : ordered_json(r.nested_rms / s);
+      }
+      j["loo_max_abs_dps"] = r.has_loo ? ordered_json(r.errors.loo_max_abs / s) : ordered_json(nullptr);
+      j["loo_rms_dps"] = r.has_loo ? ordered_json(r.errors.loo_rms / s) : ordered_json(nullptr);
+      j["in_sample_max_abs_dps"] = r.errors.in_sample_max_abs / s;
+      j["in_sample_rms_dps"] = r.errors.in_sample_rms / s;
+      j["ns_per_sample"] = r.ns;
+      list.push_back(j);
+    }
+    ordered_json out{{"data", o.data},     {"input", p.kind},       {"points", p.temp_c.size()},
+                     {"scale_mv_per_dps", s}, {"methods", list}, {"auto_candidates", candidates_json(auto_candidates, s)}};
+    std::printf("%s\n", out.dump(2).c_str());
+    return;
+  }
+  std::printf("%zu points (%s), errors in deg/s (scale %g mV/(deg/s)); nested LOO is the held-out error\n"
+              "(every choice repeated without the point), LOO refits the chosen structure\n",
+              p.temp_c.size(), p.kind.c_str(), s);
+  std::printf("%-14s %6s", "method", "dof");
+  if (o.nested) std::printf(" %10s %10s", "nested_max", "nested_rms");
+  std::printf(" %9s %9s %9s %9s %9s  %s\n", "loo_max", "loo_rms", "in_max", "in_rms", "ns/sample", "structure");
+  auto cell = [](bool have, double v) {
+    char buf[16];
+    if (have) std::snprintf(buf, sizeof buf, "%.3f", v);
+    else std::snprintf(buf, sizeof buf, "-");
+    return std::string(buf);
+  };
+  for (const Row& r : rows) {
+    std::printf("%-14s %6.1f", r.name.c_str(), r.dof);
+    if (o.nested) {
+      std::printf(" %10s %10s", cell(!std::isnan(r.nested_max), r.nested_max / s).c_str(),
+                  cell(!std::isnan(r.nested_rms), r.nested_rms / s).c_str());
+    }
+    std::printf(" %9s %9s %9.3f %9.3f %9.1f  %s\n", cell(r.has_loo, r.errors.loo_max_abs / s).c_str(),
+                cell(r.has_loo, r.errors.loo_rms / s).c_str(), r.errors.in_sample_max_abs / s,
+                r.errors.in_sample_rms / s, r.ns, r.structure.c_str());
+  }
+  std::printf("auto's ");
+  print_candidates(auto_candidates, s);
+}
+
+template <typename T>
+void require_positive(const T& values, const char* option) {
+  for (auto v : values) {
+    if (!(v > 0)) throw InputError(std::string(option) + ": values must be positive");
+  }
+}
+
+}  // namespace
+
+void add_fit_command(CLI::App& app) {
+  auto opts = std::make_shared<FitOptions>();
+  CLI::App* cmd = app.add_subcommand(
+      "fit",
+      "Fit the gyro's zero-bias temperature model (seed Section 4) to a chamber run and write the\n"
+      "calibration file. Errors are in deg/s. The headline is the nested leave-one-out error: each\n"
+      "point predicted by a model whose every choice was made without it; LOO refits the chosen\n"
+      "structure without each point (optimistic when the structure was chosen by CV).");
+  cmd->add_option("--data", opts->data,
+                  "CSV: temp_c,gyro_mv[,bias_dps] (one row per temperature, like data/table2_zero_bias.csv)\n"
+                  "or a recording time_s,sensor_c,gyro_mv (averaged in temperature bins)")
+      ->required();
+  cmd->add_option("--method", opts->method,
+                  "poly | piecewise | spline (interpolating, not-a-knot) | smooth (penalised spline) |\n"
+                  "bpnn | paper (seed's breakpoints -20/50 C, orders 4/3/4, independent segments) |\n"
+                  "auto (polynomials, spline and smooth compared by LOO, one-standard-error rule)")
+      ->capture_default_str();
+  cmd->add_option("--order", opts->orders,
+                  "Polynomial order; for piecewise one order for all segments or one per segment\n"
+                  "(default: chosen by LOO, at most one coefficient per 3 points)")
+      ->delimiter(',');
+  cmd->add_option("--breakpoints", opts->breakpoints_c,
+                  "Piecewise breakpoints in C, e.g. -20,50 (default: chosen by LOO, up to 3 segments of\n"
+                  "at least order + 3 points)")
+      ->delimiter(',');
+  cmd->add_option("--continuity", opts->continuity,
+                  "Piecewise: how segments meet: value (equal values at breakpoints), slope (values\n"
+                  "and slopes) or none (independent segments that step, as the seed fitted them)")
+      ->capture_default_str();
+  cmd->add_option("--criterion", opts->criterion,
+                  "smooth (and auto's smooth candidate): choose the smoothing by loo (exact\n"
+                  "leave-one-out) or gcv (generalised cross-validation)")
+      ->capture_default_str();
+  cmd->add_option("--penalty", opts->penalty,
+                  "smooth: penalise jumps (of the third derivative: shrinks towards a cubic, keeps\n"
+                  "the curvature at the range ends) or curvature (classical natural smoothing spline)")
+      ->capture_default_str();
+  cmd->add_option("--dof", opts->dof, "smooth: effective parameters to fit instead of choosing the smoothing");
+  cmd->add_option("--out", opts->out, "Write the calibration file (TOML) the controller loads");
+  cmd->add_flag("--json", opts->json, "Print one JSON object instead of text");
+  cmd->add_flag("--compare", opts->compare,
+                "Every method side by side: nested LOO, LOO and in-sample errors, effective\n"
+                "parameters, ns per sample, and auto's candidates");
+  cmd->add_flag("--nested,!--no-nested", opts->nested,
+                "Nested LOO, the headline figure (on by default): every choice (order, breakpoints,\n"
+                "smoothing, method) repeated in each fold, the honest error at an unseen temperature.\n"
+                "--no-nested skips it (a piecewise search repeats a few thousand fits per fold)");
+  cmd->add_option("--seed", opts->seed, "BP network: seed of initial weights and validation split")
+      ->capture_default_str();
+  cmd->add_option("--hidden", opts->hidden, "BP network: hidden layer sizes (seed: 10,10,10)")
+      ->delimiter(',')
+      ->capture_default_str();
+  cmd->add_option("--restarts", opts->restarts, "BP network: trainings from different seeds, best kept")
+      ->capture_default_str();
+  cmd->add_option("--bin-width", opts->bin_width_c, "Time-series input: temperature bin width (C)")
+      ->capture_default_str();
+  cmd->add_option("--scale", opts->scale_mv_per_dps, "Scale factor, mV/(deg/s) (seed Table 2: 8.774)")
+      ->capture_default_str();
+  cmd->callback([opts] {
+    if (!(opts->bin_width_c > 0.0)) throw InputError("--bin-width: must be positive");
+    if (!(opts->scale_mv_per_dps > 0.0)) throw InputError("--scale: must be positive");
+    if (opts->dof < 0.0) throw InputError("--dof: must be positive");
+    if (opts->restarts < 1) throw InputError("--restarts: must be at least 1");
+    require_positive(opts->hidden, "--hidden");
+    if (opts->compare) {
+      if (!opts->out.empty()) throw InputError("--out: not with --compare (choose one method)");
+      run_compare(*opts);
+    } else {
+      run_single(*opts);
+    }
+  });
+}
+
+}  // namespace gyrotc::app

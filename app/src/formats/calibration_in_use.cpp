@@ -1,0 +1,39 @@
+#include "gyrotc/app/formats/calibration_in_use.hpp"
+
+#include <cerrno>
+#include <cstdio>
+#include <cstring>
+#include <fstream>
+#include <sstream>
+
+#include "gyrotc/app/formats/calibration_file.hpp"
+#include "gyrotc/app/support/errors.hpp"
+#include "gyrotc/app/support/sha256.hpp"
+
+namespace gyrotc::app {
+
+CalibrationInUse load_calibration_in_use(const std::string& file) {
+  CalibrationInUse c;
+  if (file.empty()) return c;
+  std::ifstream in(file, std::ios::binary);
+  if (!in) throw InputError(file + ": cannot open the calibration file: " + std::strerror(errno));
+  std::ostringstream text;
+  text << in.rdbuf();
+  if (in.bad()) throw InputError(file + ": read error");
+  Calibration parsed = parse_calibration(text.str(), file);
+  c.file = file;
+  c.model = std::move(parsed.model);
+  c.scale_mv_per_dps = parsed.scale_mv_per_dps;
+  c.sha256 = sha256_hex(text.str());
+  return c;
+}
+
+std::string describe(const CalibrationInUse& c) {
+  char range[64];
+  std::snprintf(range, sizeof range, "%g..%g C", c.model.t_min_c(), c.model.t_max_c());
+  const std::string what = std::string(c.model.kind_name()) + ", " + range;
+  if (c.file.empty()) return "the seed's built-in reference model (" + what + ")";
+  return c.file + ": " + what + ", sha256 " + c.sha256.substr(0, 16);
+}
+
+}  // namespace gyrotc::app

@@ -1,0 +1,322 @@
+#include "gyrotc/app/workflows/tuning.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <functional>
+#include <limits>
+#include <stdexcept>
+
+#include "gyrotc/algorithms/fit/bias_model.hpp"
+#include "gyrotc/app/formats/csv_table.hpp"
+#include "gyrotc/app/support/errors.hpp"
+
+namespace gyrotc::app {
+namespace {
+
+constexpr const char* kNeeds =
+    "gyrotc tune needs time_s, sensor_c and tec_a (and ambient_c when the board has an ambient sensor), as "
+    "`gyrotc record --experiment tune` and `gyrotc simulate --profile tune` write them";
+
+std::vector<double> numbers_or_nan(const CsvTable& table, const char* column) {
+  std::vector<double> out;
+  const std::vector<std::string> cells = table.text(column);
+  out.reserve(cells.size());
+  for (std::size_t row = 0; row < cells.size(); ++row) {
+    const std::string& cell = cells[row];
+    char* end = nullptr;
+    const double v = std::strtod(cell.c_str(), &end);
+    if (end == cell.c_str() || *end != '\0') {
+      throw InputError(table.path() + ":" + std::to_string(table.line_of(row)) + ": column '" + column + "': '" +
+                       cell + "' is not a number");
+    }
+    out.push_back(v);  // nan: no reading yet
+  }
+  return out;
+}
+
+double seconds_since(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
+std::string fmt(const char* format, double a, double b = 0.0) {
+  char buf[256];
+  std::snprintf(buf, sizeof buf, format, a, b);
+  return buf;
+}
+
+std::string toml_number(double v) {
+  if (!std::isfinite(v)) return v > 0 ? "inf" : (v < 0 ? "-inf" : "nan");
+  char buf[40];
+  std::snprintf(buf, sizeof buf, "%.6g", v);
+  std::string s(buf);
+  if (s.find_first_of(".eEn") == std::string::npos) s += ".0";
+  return s;
+}
+
+// Room temperature of the record: the mean ambient reading, or the estimate.
+double room_of(const tune::TuneRecord& r, const tune::ThermalFit& fit) {
+  double sum = 0.0;
+  std::size_t n = 0;
+  for (double a : r.ambient_c) {
+    if (std::isfinite(a)) {
+      sum += a;
+      ++n;
+    }
+  }
+  return n > 0 ? sum / static_cast<double>(n) : fit.ambient_c;
+}
+
+}  // namespace
+
+TuneInput read_tune_record(const std::string& path) {
+  const CsvTable table = CsvTable::read(path);
+  for (const char* column : {"time_s", "sensor_c", "tec_a"}) {
+    if (!table.has(column)) throw InputError(path + ": no column '" + column + "': " + kNeeds);
+  }
+  TuneInput in;
+  in.source = path;
+  in.record.time_s = table.numbers("time_s");
+  in.record.sensor_c = table.numbers("sensor_c");
+  in.record.tec_a = table.numbers("tec_a");
+  if (table.has("ambient_c")) {
+    in.record.ambient_c = numbers_or_nan(table, "ambient_c");
+    if (std::none_of(in.record.ambient_c.begin(), in.record.ambient_c.end(), [](double v) { return std::isfinite(v); })) {
+      in.record.ambient_c.clear();  // a board without the ambient sensor writes nan
+    }
+  }
+  if (table.has("setpoint_c")) {
+    std::vector<double> sp = numbers_or_nan(table, "setpoint_c");
+    sp.erase(std::remove_if(sp.begin(), sp.end(), [](double v) { return !std::isfinite(v); }), sp.end());
+    if (!sp.empty()) {
+      std::nth_element(sp.begin(), sp.begin() + static_cast<std::ptrdiff_t>(sp.size() / 2), sp.end());
+      in.setpoint_c = sp[sp.size() / 2];
+    }
+  }
+  if (in.record.time_s.empty()) throw InputError(path + ": no rows: " + kNeeds);
+  return in;
+}
+
+TuneResult tune_from_record(const TuneInput& input) {
+  TuneResult r;
+  auto start = std::chrono::steady_clock::now();
+  try {
+    r.fit = tune::identify_thermal(input.record, input.experiment_scale);
+  } catch (const std::invalid_argument& e) {
+    throw InputError(input.source + ": " + e.what());
+  }
+  r.identify_s = seconds_since(start);
+
+  r.spec.setpoint_c = input.setpoint_c;
+  r.spec.room_c = room_of(input.record, r.fit);
+  r.spec.ambient_sensor = r.fit.ambient_measured;
+  r.spec.max_a = r.fit.heating_limit_a;
+  r.spec.min_a = std::min(r.fit.cooling_limit_a, -1e-3);
+  r.spec.rail_known = r.fit.rail_reached;
+  start = std::chrono::steady_clock::now();
+  try {
+    r.design = tune::design_controller(r.fit.model, r.spec);
+  } catch (const std::invalid_argument& e) {
+    throw InputError(input.source + ": " + e.what());
+  }
+  r.design_s = seconds_since(start);
+
+  ControllerFile& c = r.controller;
+  c.setpoint_c = input.setpoint_c;
+  c.kp = r.design.gains.kp;
+  c.ki = r.design.gains.ki;
+  c.kd = r.design.gains.kd;
+  c.period_s = r.spec.period_s;
+  c.xi_c = r.design.gains.xi_c;
+  c.feed_forward_a_per_c = r.design.feed_forward_a_per_c;
+  c.setpoint_ramp_c_per_s = r.design.setpoint_ramp_c_per_s;
+  c.rail = r.design.rail;
+  c.stuck_min_drive_a = r.design.stuck_min_drive_a;
+
+  // What the user should know.
+  double lowest = std::numeric_limits<double>::quiet_NaN();
+  double highest = std::numeric_limits<double>::quiet_NaN();
+  for (std::size_t j = 0; j < r.design.holding_ambient_c.size(); ++j) {
+    if (!std::isfinite(r.design.holding_a[j])) continue;
+    const double ta = r.design.holding_ambient_c[j];
+    if (!std::isfinite(lowest)) lowest = ta;
+    highest = ta;
+  }
+  if (lowest > r.spec.rated_low_c || highest < r.spec.rated_high_c) {
+    r.warnings.push_back(fmt("the unit can hold the setpoint only for ambients of about %.0f .. %.0f C with its "
+                             "current limits and rails",
+                             lowest, highest));
+  }
+  if (!r.fit.rail_reached) {
+    r.warnings.push_back("the experiment never reached the OPA548's rail limit: no [rail] in the controller file, "
+                         "the anti-windup knows only the current limits");
+  }
+  if (!r.fit.ambient_measured) {
+    r.warnings.push_back(fmt("no ambient column: no feed-forward; the ambient was taken constant at %.1f C",
+                             r.fit.ambient_c));
+  }
+  if (r.fit.rms_c > 2.0 * r.fit.quantisation_rms_c) {
+    r.warnings.push_back(fmt("the model misses part of the record: residual rms %.3f C, %.1fx the DS18B20's "
+                             "quantisation",
+                             r.fit.rms_c, r.fit.rms_c / r.fit.quantisation_rms_c));
+  }
+  const double max_sensor = *std::max_element(input.record.sensor_c.begin(), input.record.sensor_c.end());
+  const double min_sensor = *std::min_element(input.record.sensor_c.begin(), input.record.sensor_c.end());
+  if (max_sensor < input.setpoint_c - 1.0 || min_sensor > input.setpoint_c + 1.0) {
+    r.warnings.push_back(fmt("the record never came within 1 C of the setpoint (%.1f C): the model is "
+                             "extrapolated there",
+                             input.setpoint_c));
+  }
+  for (const auto& e : r.fit.estimates) {
+    if (!e.determined && e.name != "rail_a") r.warnings.push_back(e.name + ": " + e.note);
+  }
+  return r;
+}
+
+SimulationResult simulate_tune_experiment(const model::PlantParams& plant, double room_c, double sample_rate_hz,
+                                          const tune::ExperimentPlan& plan) {
+  static const fit::BiasModel calibration = fit::BiasModel::paper_reference();
+  SimulationSetup s;
+  s.plant = plant;
+  s.controller = controller_preset(ControllerMode::paper, plant);  // its limits and fail-safes; the PID idles
+  s.calibration = &calibration;
+  s.sample_rate_hz = sample_rate_hz;
+  tune::IdentificationExperiment experiment(plan);
+  s.program = &experiment;
+  return run_simulation(s, tune_experiment_room(room_c, plan));
+}
+
+model::ChamberProfile tune_experiment_room(double room_c, const tune::ExperimentPlan& plan) {
+  return model::ChamberProfile({{"tune", 0.0, plan.max_duration_s(), room_c, room_c}});
+}
+
+double plant_minimum_warm_up_s(const model::PlantParams& params, double from_c, double target_c) {
+  model::PlantParams p = params;
+  p.initial_temp_c = from_c;
+  model::Plant plant(p, 1);
+  plant.set_ambient_c(from_c);
+  plant.set_tec_enabled(true);
+  plant.set_tec_drive_v(0.5 * p.dac_vref_v + p.current_limit_a / p.gain_a_per_v);
+  constexpr double kStepS = 0.1;
+  for (double t = 0.0; t < 4.0 * 3600.0; t += kStepS) {
+    if (plant.casing_c() >= target_c) return t;
+    plant.advance(kStepS);
+  }
+  return -1.0;
+}
+
+std::string tune_informational_toml(const TuneResult& r, const std::string& source) {
+  std::string out = "[identified]          # gyrotc tune from " + source + " (informational, not read)\n";
+  for (const auto& e : r.fit.estimates) {
+    out += e.name + " = " + toml_number(e.value) + "\n";
+    out += e.name + "_std = " + toml_number(e.std_error) + "\n";
+  }
+  out += "fit_rms_c = " + toml_number(r.fit.rms_c) + "\n";
+  out += "samples = " + std::to_string(r.fit.samples) + "\n";
+  out += "\n[design]              # robustness margin and what the design predicts (informational, not read)\n";
+  out += "max_sensitivity = " + toml_number(r.design.margins.max_sensitivity) + "\n";
+  out += "gain_margin = " + toml_number(r.design.margins.gain_margin) + "\n";
+  out += "phase_margin_deg = " + toml_number(r.design.margins.phase_margin_deg) + "\n";
+  out += "max_sensitivity_limit = " + toml_number(r.spec.max_sensitivity) + "\n";
+  for (const auto& p : r.design.perturbed) {
+    std::string key = "max_sensitivity_" + p.perturbation;
+    for (char& ch : key) {
+      if (!std::isalnum(static_cast<unsigned char>(ch))) ch = '_';
+    }
+    out += key + " = " + toml_number(p.max_sensitivity) + "\n";
+  }
+  out += "predicted_settle_s = " + toml_number(r.design.predicted.settle_s) + "\n";
+  out += "minimum_settle_s = " + toml_number(r.design.minimum_settle_s) + "\n";
+  out += "predicted_max_error_in_band_c = " + toml_number(r.design.predicted.max_error_in_band_c) + "\n";
+  out += "room_c = " + toml_number(r.spec.room_c) + "\n";
+  return out;
+}
+
+nlohmann::json tune_json(const TuneResult& r) {
+  using nlohmann::json;
+  auto number = [](double v) { return std::isfinite(v) ? json(v) : json(nullptr); };
+  json j;
+  const auto& f = r.fit;
+  j["samples"] = f.samples;
+  j["duration_s"] = f.duration_s;
+  j["identify_s"] = r.identify_s;
+  j["design_s"] = r.design_s;
+  j["fit"] = {{"rms_c", f.rms_c},
+              {"max_abs_c", f.max_abs_c},
+              {"quantisation_rms_c", f.quantisation_rms_c},
+              {"r_squared", f.r_squared},
+              {"lag1_autocorrelation", f.lag1_autocorrelation},
+              {"effective_samples", f.effective_samples},
+              {"ljung_box_p", f.ljung_box_p},
+              {"ambient_measured", f.ambient_measured},
+              {"rail_reached", f.rail_reached}};
+  json params = json::array();
+  for (const auto& e : f.estimates) {
+    params.push_back({{"name", e.name},
+                      {"unit", e.unit},
+                      {"value", number(e.value)},
+                      {"std_error", number(e.std_error)},
+                      {"determined", e.determined},
+                      {"note", e.note}});
+  }
+  j["parameters"] = params;
+  const double sp = r.spec.setpoint_c;
+  const double room = r.spec.room_c;
+  const double limit = std::max(r.spec.max_a, -r.spec.min_a);
+  auto hold_at = [sp, limit](double ta) {
+    return [sp, limit, ta](const tune::ThermalModel& m) { return tune::holding_current_a(m, sp, ta, limit); };
+  };
+  auto gain_at_setpoint = [sp, room, limit](const tune::ThermalModel& m) {
+    const double i = tune::holding_current_a(m, sp, room, limit);
+    return tune::casing_gain_k_per_a_s(m, tune::steady_state(m, i, room), i);
+  };
+  auto time_constant = [](const tune::ThermalModel& m) { return 1.0 / m.loss_per_s; };
+  auto derived = [&](const char* name, const char* unit, const std::function<double(const tune::ThermalModel&)>& fn) {
+    return json{{"name", name}, {"unit", unit}, {"value", number(fn(f.model))}, {"std_error", number(tune::std_error_of(f, fn))}};
+  };
+  j["derived"] = json::array({derived("casing_time_constant_s", "s", time_constant),
+                              derived("tec_gain_at_setpoint_k_per_a_s", "K/(A s)", gain_at_setpoint),
+                              derived("holding_a_at_band_low", "A", hold_at(r.spec.band_low_c)),
+                              derived("holding_a_at_room", "A", hold_at(room)),
+                              derived("holding_a_at_band_high", "A", hold_at(r.spec.band_high_c))});
+  json holding = json::array();
+  for (std::size_t k = 0; k < r.design.holding_ambient_c.size(); ++k) {
+    holding.push_back({{"ambient_c", r.design.holding_ambient_c[k]}, {"current_a", number(r.design.holding_a[k])}});
+  }
+  j["holding"] = holding;
+  const auto& d = r.design;
+  json perturbed = json::array();
+  for (const auto& p : d.perturbed) perturbed.push_back({{"perturbation", p.perturbation}, {"max_sensitivity", p.max_sensitivity}});
+  j["design"] = {{"setpoint_c", sp},
+                 {"kp", d.gains.kp},
+                 {"ki", d.gains.ki},
+                 {"kd", d.gains.kd},
+                 {"period_s", r.spec.period_s},
+                 {"xi_c", d.gains.xi_c},
+                 {"feed_forward_a_per_c", d.feed_forward_a_per_c},
+                 {"setpoint_ramp_c_per_s", d.setpoint_ramp_c_per_s},
+                 {"stuck_min_drive_a", d.stuck_min_drive_a},
+                 {"rail", d.rail.known ? json{{"pos_a", d.rail.pos_a}, {"neg_a", d.rail.neg_a}, {"a_per_c", d.rail.a_per_c}}
+                                       : json(nullptr)},
+                 {"room_c", room},
+                 {"current_limits_a", {r.spec.min_a, r.spec.max_a}},
+                 {"margins",
+                  {{"max_sensitivity", d.margins.max_sensitivity},
+                   {"max_sensitivity_limit", r.spec.max_sensitivity},
+                   {"gain_margin", number(d.margins.gain_margin)},
+                   {"phase_margin_deg", number(d.margins.phase_margin_deg)},
+                   {"crossover_rad_s", d.margins.crossover_rad_s},
+                   {"perturbed", perturbed},
+                   {"max_sensitivity_perturbed_limit", r.spec.max_sensitivity_perturbed}}},
+                 {"predicted_settle_s", number(d.predicted.settle_s)},
+                 {"minimum_settle_s", number(d.minimum_settle_s)},
+                 {"predicted_max_error_in_band_c", d.predicted.max_error_in_band_c},
+                 {"candidates", d.candidates},
+                 {"robust_candidates", d.robust_candidates}};
+  j["warnings"] = r.warnings;
+  return j;
+}
+
+}  // namespace gyrotc::app

@@ -1,0 +1,47 @@
+cmake_minimum_required(VERSION 3.20)
+# The rooms of app/ and the one-way arrows between them (docs/ARCHITECTURE.md):
+# a file may include headers of its own room and of the rooms listed for it,
+# nothing else of gyrotc::app. Run as: cmake -DSOURCE_DIR=<repo> -P this.
+# Fails naming the file, the line and the include that points the wrong way.
+set(_allowed_cli       cli daemon workflows report formats runtime support)
+set(_allowed_daemon    daemon formats runtime support)
+set(_allowed_workflows workflows formats runtime support)
+set(_allowed_report    report support)
+set(_allowed_formats   formats runtime support)
+set(_allowed_runtime   runtime support)
+set(_allowed_support   support)
+set(_rooms cli daemon workflows report formats runtime support)
+
+set(_failures "")
+foreach(_top src include/gyrotc/app)
+  file(GLOB _entries RELATIVE "${SOURCE_DIR}/app/${_top}" "${SOURCE_DIR}/app/${_top}/*")
+  foreach(_entry IN LISTS _entries)
+    if(IS_DIRECTORY "${SOURCE_DIR}/app/${_top}/${_entry}" AND NOT _entry IN_LIST _rooms)
+      string(APPEND _failures "app/${_top}/${_entry}: a folder that is not one of the rooms (${_rooms})\n")
+    endif()
+  endforeach()
+endforeach()
+
+foreach(_room IN LISTS _rooms)
+  file(GLOB_RECURSE _files "${SOURCE_DIR}/app/src/${_room}/*.cpp"
+       "${SOURCE_DIR}/app/include/gyrotc/app/${_room}/*.hpp")
+  foreach(_file IN LISTS _files)
+    file(STRINGS "${_file}" _lines)
+    set(_n 0)
+    foreach(_line IN LISTS _lines)
+      math(EXPR _n "${_n} + 1")
+      if(_line MATCHES "^#include \"gyrotc/app/([a-z_]+)/")
+        set(_to "${CMAKE_MATCH_1}")
+        if(NOT _to IN_LIST _allowed_${_room})
+          file(RELATIVE_PATH _rel "${SOURCE_DIR}" "${_file}")
+          string(APPEND _failures "${_rel}:${_n}: the ${_room} room includes ${_to}/ (allowed: ${_allowed_${_room}})\n")
+        endif()
+      endif()
+    endforeach()
+  endforeach()
+endforeach()
+
+if(_failures)
+  message(FATAL_ERROR "app/ rooms: an arrow points the wrong way\n${_failures}")
+endif()
+message(STATUS "app/ rooms: every include points down the layer map")
