@@ -232,19 +232,22 @@ std::string factors_of(const PlantParams& p) {
 // Casing error of the three controllers over fig26.
 void plot_variant(const Outcome& o, const std::string& path) {
   app::plot::Figure f;
-  f.title = "fig26 on " + o.variant.name + ": casing - 55 C";
+  f.title = "fig26 on " + o.variant.name + ": casing - 55 °C";
   f.x.title = "time (s)";
+  f.x.tight = true;
   app::plot::Panel panel;
-  panel.y.title = "casing error (C)";
+  panel.y.title = "casing error (°C)";
+  panel.y.min = -0.5;  // fixed: the variants' plots compare at a glance
+  panel.y.max = 0.5;
+  panel.bands = {{"±0.3 °C band", -0.3, 0.3, "#2ca02c", false}};
   const std::pair<const char*, const LoopFigures*> loops[] = {
       {"tuned from data", &o.data}, {"tuned (fixed)", &o.tuned}, {"paper", &o.paper}};
   for (const auto& [label, loop] : loops) {
     app::plot::Series s;
     s.label = label;
-    // Every 10th second (the file stays small; the holds change over minutes).
-    for (std::size_t k = 0; k < loop->rows.size(); k += 10) {
-      s.x.push_back(loop->rows[k].time_s);
-      s.y.push_back(std::clamp(loop->rows[k].casing_c - kSetpointC, -0.5, 0.5));
+    for (const auto& row : loop->rows) {
+      s.x.push_back(row.time_s);
+      s.y.push_back(row.casing_c - kSetpointC);
     }
     if (!s.x.empty()) panel.series.push_back(std::move(s));
   }
@@ -252,11 +255,11 @@ void plot_variant(const Outcome& o, const std::string& path) {
   ambient.label = "ambient";
   ambient.right_axis = true;
   ambient.dashed = true;
-  for (std::size_t k = 0; k < o.paper.rows.size(); k += 10) {
-    ambient.x.push_back(o.paper.rows[k].time_s);
-    ambient.y.push_back(o.paper.rows[k].ambient_c);
+  for (const auto& row : o.paper.rows) {
+    ambient.x.push_back(row.time_s);
+    ambient.y.push_back(row.ambient_c);
   }
-  panel.y2.title = "ambient (C)";
+  panel.y2.title = "ambient (°C)";
   panel.series.push_back(ambient);
   f.panels = {panel};
   app::plot::write_svg(f, path);

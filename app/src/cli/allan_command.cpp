@@ -71,35 +71,40 @@ Quoted quoted(stats::NoiseTerm t) {
   return {"", "", "", 1.0};
 }
 
+// A rate in deg/s (a column named *_dps) is drawn in deg/h, the unit its
+// fitted terms are quoted in (N in deg/sqrt(h), B in deg/h, K in deg/h/sqrt(h)).
 plot::Figure allan_figure(const stats::AllanResult& r, const std::string& title, const std::string& column,
                           double confidence) {
+  const bool dps = ends_with(column, "_dps");
+  const double scale = dps ? 3600.0 : 1.0;
   plot::Figure f;
   f.title = title;
-  f.x.title = "cluster time tau (s)";
+  f.x.title = "cluster time τ (s)";
   f.x.scale = plot::Scale::log;
+  f.legend_width_px = 230.0;
   plot::Panel p;
-  p.y.title = "Allan deviation (" + column + ")";
+  p.y.title = dps ? "Allan deviation (°/h)" : "Allan deviation (" + column + ")";
   p.y.scale = plot::Scale::log;
   plot::Series adev, hdev, lo, hi;
-  adev.label = "overlapping Allan deviation";
+  adev.label = "Allan deviation";
   adev.color = "#1f77b4";
-  hdev.label = "overlapping Hadamard deviation (blind to a rate ramp; used by the fit at long tau)";
+  hdev.label = "Hadamard deviation";
   hdev.color = "#17becf";
+  hdev.dashed = true;
   char label[160];
-  std::snprintf(label, sizeof label, "%.0f %% interval (chi-square, EDF of the fitted noise)", 100.0 * confidence);
+  std::snprintf(label, sizeof label, "%.0f %% interval of the Allan dev.", 100.0 * confidence);
   lo.label = label;
-  hi.label = "";
   lo.color = hi.color = "#9ecae1";
   for (const auto& pt : r.points) {
     adev.x.push_back(pt.tau_s);
-    adev.y.push_back(pt.adev);
+    adev.y.push_back(pt.adev * scale);
     lo.x.push_back(pt.tau_s);
-    lo.y.push_back(pt.ci_low);
+    lo.y.push_back(pt.ci_low * scale);
     hi.x.push_back(pt.tau_s);
-    hi.y.push_back(pt.ci_high);
+    hi.y.push_back(pt.ci_high * scale);
     if (pt.hdev > 0.0) {
       hdev.x.push_back(pt.tau_s);
-      hdev.y.push_back(pt.hdev);
+      hdev.y.push_back(pt.hdev * scale);
     }
   }
   const double t0 = r.points.front().tau_s;
@@ -113,19 +118,19 @@ plot::Figure allan_figure(const stats::AllanResult& r, const std::string& title,
     const Quoted q = quoted(t);
     const int power = stats::noise_term_power(t);
     static const char* slopes[] = {"-1", "-1/2", "0", "+1/2", "+1"};
-    std::snprintf(label, sizeof label, "%s = %.3g %s (slope %s)", q.label, e.value * q.scale, q.unit,
+    const std::string symbol = std::string(q.label).substr(std::string(q.label).rfind(' ') + 1);
+    std::snprintf(label, sizeof label, "%s = %.3g %s (slope %s)", symbol.c_str(), e.value * q.scale, q.unit,
                   slopes[static_cast<std::size_t>(power + 2)]);
     // ADEV of the term alone: sqrt(c) tau^(power / 2), drawn through tau = 1 s.
-    p.series.push_back(plot::power_law_line(label, std::sqrt(stats::avar_coefficient(t, e.value)), 1.0, 0.5 * power,
-                                            t0, t1, colors[static_cast<std::size_t>(t)]));
+    p.series.push_back(plot::power_law_line(label, scale * std::sqrt(stats::avar_coefficient(t, e.value)), 1.0,
+                                            0.5 * power, t0, t1, colors[static_cast<std::size_t>(t)]));
   }
-  std::snprintf(label, sizeof label, "fitted model");
   plot::Series model;
-  model.label = label;
+  model.label = "fitted model";
   model.color = "#000000";
   for (const auto& pt : r.points) {
     model.x.push_back(pt.tau_s);
-    model.y.push_back(std::sqrt(r.fit.avar(pt.tau_s)));
+    model.y.push_back(scale * std::sqrt(r.fit.avar(pt.tau_s)));
   }
   if (r.fit.valid) p.series.push_back(model);
   f.panels = {p};

@@ -189,12 +189,17 @@ void write_text(const std::filesystem::path& path, const std::string& text) {
   if (!out) throw RuntimeFailure("cannot write " + path.string());
 }
 
-// Measured against the baseline and final models, and both residuals, on a
-// shared x axis. Long records are thinned to about 4000 points per curve: an
-// SVG of a 24 h 1 Hz record would otherwise be tens of MB.
+// A column name in words for an axis: "time_s" -> "time (s)".
+std::string axis_words(const std::string& column) {
+  if (column == "time_s") return "time (s)";
+  if (column == "temp_c") return "temperature (°C)";
+  return column;
+}
+
+// Measured (wide, light) under the baseline and final models, and both
+// residuals, on a shared x axis. The plot writer keeps each pixel column's
+// extremes, so a 24 h 1 Hz record draws whole in a small file.
 plot::Figure identification_figure(const id::Identification& r) {
-  const std::size_t n = r.x.size();
-  const std::size_t stride = n > 4000 ? (n + 3999) / 4000 : 1;
   const auto series = [](std::string label, std::string color, bool dashed = false) {
     plot::Series s;
     s.label = std::move(label);
@@ -202,12 +207,13 @@ plot::Figure identification_figure(const id::Identification& r) {
     s.dashed = dashed;
     return s;
   };
-  plot::Series measured = series("measured", "#222222");
+  plot::Series measured = series("measured", "#bbbbbb");
+  measured.width_px = 4.0;
   plot::Series baseline = series("baseline model", "#d62728", true);
   plot::Series final_model = series("final model", "#1f77b4");
   plot::Series baseline_residual = series("baseline residual", "#d62728");
   plot::Series final_residual = series("final residual", "#1f77b4");
-  for (std::size_t i = 0; i < n; i += stride) {
+  for (std::size_t i = 0; i < r.x.size(); ++i) {
     for (plot::Series* s : {&measured, &baseline, &final_model, &baseline_residual, &final_residual}) {
       s->x.push_back(r.x[i]);
     }
@@ -217,9 +223,13 @@ plot::Figure identification_figure(const id::Identification& r) {
     baseline_residual.y.push_back(r.measured[i] - r.baseline_model[i]);
     final_residual.y.push_back(r.measured[i] - r.final_model[i]);
   }
+  char title[256];
+  std::snprintf(title, sizeof title, "gyrotc identify: %s, verdict %s; residual RMS %.3g -> %.3g %s (%.1fx smaller)",
+                r.target.c_str(), r.verdict.c_str(), r.baseline_rms, r.final_rms, r.units.c_str(), r.shrink);
   plot::Figure f;
-  f.title = "gyrotc identify: " + r.target + " (" + r.verdict + ", gap shrink " + std::to_string(r.shrink) + "x)";
-  f.x.title = r.x_name;
+  f.title = title;
+  f.x.title = axis_words(r.x_name);
+  f.x.tight = r.x_name == "time_s";
   plot::Panel values;
   values.y.title = r.target + " (" + r.units + ")";
   values.series = {std::move(measured), std::move(baseline), std::move(final_model)};

@@ -20,6 +20,7 @@
 #include "gyrotc/app/formats/chamber_profile_file.hpp"
 #include "gyrotc/app/cli/commands.hpp"
 #include "gyrotc/app/formats/controller_file.hpp"
+#include "gyrotc/app/formats/csv_table.hpp"
 #include "gyrotc/app/support/data_dir.hpp"
 #include "gyrotc/app/support/errors.hpp"
 #include "gyrotc/app/runtime/lockstep_runner.hpp"
@@ -43,6 +44,7 @@ struct SimulateOptions {
   std::uint64_t seed = 1;
   std::string out;
   std::string plot;
+  std::string compare;  // another run's --out folder, overlaid on the plot
   std::string rate_csv;
   std::string rate_window;  // "START:END", seconds from the profile's start
   bool json = false;
@@ -115,36 +117,116 @@ class RateWriter {
   std::uint64_t invalid_ = 0;
 };
 
-// Temperatures and TEC current above, the rate before/after compensation below.
-plot::Figure simulation_figure(const SimulationResult& r, const SimulateOptions& o, double scale_mv_per_dps) {
-  plot::Figure f;
-  f.title = "gyrotc simulate: profile " + o.profile + ", controller " + o.controller;
-  f.x.title = "time (s)";
-  plot::Series casing, setpoint, ambient, current, compensated, uncompensated;
-  casing.label = "casing (true)";
-  setpoint.label = "setpoint";
-  ambient.label = "ambient";
-  current.label = "TEC current";
-  current.right_axis = true;
-  compensated.label = "compensated rate";
-  uncompensated.label = "uncompensated bias (gyro_mv / scale)";
+// Another run's 1 Hz series (its --out folder's simulation.csv), for
+// --compare: read before this run starts, so a wrong folder costs nothing.
+struct ComparedRun {
+  std::string label;
+  std::vector<double> time_s, casing_c, error_c, tec_a, rate_dps;
+};
+
+ComparedRun read_compared_run(const std::string& dir) {
+  const std::string path = dir + "/simulation.csv";
+  if (!std::filesystem::is_regular_file(path)) {
+    throw InputError("--compare " + dir + ": no simulation.csv there (the --out folder of another simulate run)");
+  }
+  const CsvTable t = CsvTable::read(path);
+  ComparedRun r;
+  r.label = std::filesystem::path(dir).lexically_normal().filename().string();
+  if (r.label.empty() || r.label == ".") r.label = dir;
+  r.time_s = t.numbers("time_s");
+  r.casing_c = t.numbers("casing_c");
+  const std::vector<double> setpoint = t.numbers("setpoint_c");
+  r.tec_a = t.numbers("tec_a");
+  r.rate_dps = t.numbers_or_nan("rate_dps_compensated");
+  for (std::size_t i = 0; i < r.time_s.size(); ++i) r.error_c.push_back(r.casing_c[i] - setpoint[i]);
+  return r;
+}
+
+// The times after settling (+ the settle hold) when the ambient was in the
+// band the casing error is judged on (RunSummary::max_abs_error_c_in_band).
+std::vector<plot::Band> judged_spans(const SimulationResult& r) {
+  std::vector<plot::Band> spans;
+  if (r.summary.settle_s < 0.0) return spans;
+  const double from_s = r.summary.settle_s + 300.0;
+  bool open = false;
   for (const auto& row : r.rows) {
-    for (auto* s : {&casing, &setpoint, &ambient, &current, &compensated, &uncompensated}) s->x.push_back(row.time_s);
+    const bool in = row.time_s >= from_s && row.ambient_c >= -20.0 && row.ambient_c <= 35.0;
+    if (in && !open) spans.push_back({"", row.time_s, row.time_s, "#1f77b4", true});
+    if (in) spans.back().to = row.time_s;
+    open = in;
+  }
+  if (!spans.empty()) spans.front().label = "judged: ambient -20..35 °C";
+  return spans;
+}
+
+// Stacked panels on one time axis (seed Fig. 26 as an engineer reads it):
+// temperatures; the casing's error with the +/-0.3 C band; the TEC current on
+// the stage's full range; the bias before compensation; the rate after it.
+plot::Figure simulation_figure(const SimulationResult& r, const SimulateOptions& o, double scale_mv_per_dps,
+                               const model::ChamberProfile& profile, double tec_limit_a, bool regulated,
+                               const std::optional<ComparedRun>& other) {
+  plot::Figure f;
+  f.title = "gyrotc simulate: " + o.profile + " profile, " + o.controller + " controller";
+  f.x.title = "time (s)";
+  f.x.tight = true;
+  f.panel_height_px = 150.0;
+  f.width_px = 1000.0;
+  plot::Series casing{"casing", {}, {}, "#d62728"}, setpoint{"setpoint", {}, {}, "#555555", true},
+      ambient{"chamber (ambient)", {}, {}, "#1f77b4"}, error{"casing - setpoint", {}, {}, "#d62728"},
+      current{"TEC current", {}, {}, "#ff7f0e"}, uncompensated{"bias, uncompensated", {}, {}, "#9467bd"},
+      compensated{"rate, compensated", {}, {}, "#2ca02c"};
+  for (const auto& row : r.rows) {
+    for (auto* s : {&casing, &setpoint, &ambient, &error, &current, &uncompensated, &compensated}) {
+      s->x.push_back(row.time_s);
+    }
     casing.y.push_back(row.casing_c);
     setpoint.y.push_back(row.setpoint_c);
     ambient.y.push_back(row.ambient_c);
+    error.y.push_back(row.casing_c - row.setpoint_c);
     current.y.push_back(row.tec_a);
-    compensated.y.push_back(row.rate_dps_compensated);
     uncompensated.y.push_back(row.gyro_mv / scale_mv_per_dps);
+    compensated.y.push_back(row.rate_dps_compensated);
   }
-  plot::Panel temps;
-  temps.y.title = "temperature (C)";
-  temps.y2.title = "TEC current (A)";
-  temps.series = {casing, setpoint, ambient, current};
-  plot::Panel rate;
-  rate.y.title = "rate (deg/s), 1 s means";
-  rate.series = {uncompensated, compensated};
-  f.panels = {temps, rate};
+  plot::Panel temps, err, tec, bias, rate;
+  temps.y.title = "temperature (°C)";
+  temps.series = {ambient, casing};
+  if (regulated) temps.series.push_back(setpoint);
+  err.y.title = "error (°C)";
+  err.y.min = -1.0;
+  err.y.max = 1.0;
+  err.series = {error};
+  err.bands = {{"±0.3 °C band", -0.3, 0.3, "#2ca02c", false}};
+  if (regulated) {
+    for (const auto& span : judged_spans(r)) err.bands.push_back(span);
+  }
+  tec.y.title = "TEC (A)";
+  tec.y.min = -tec_limit_a;
+  tec.y.max = tec_limit_a;
+  tec.series = {current};
+  bias.y.title = "bias (°/s)";
+  bias.series = {uncompensated};
+  rate.y.title = "rate (°/s)";
+  rate.series = {compensated};
+  if (other) {
+    const std::string tag = "vs " + other->label;
+    // Solid grey under this run's lines: dashes break up on 1 Hz data.
+    auto under = [](plot::Panel& p, plot::Series s) { p.series.insert(p.series.begin(), std::move(s)); };
+    under(temps, {"casing, " + tag, other->time_s, other->casing_c, "#aaaaaa"});
+    under(err, {"error, " + tag, other->time_s, other->error_c, "#aaaaaa"});
+    under(tec, {"TEC, " + tag, other->time_s, other->tec_a, "#aaaaaa"});
+    under(rate, {"rate, " + tag, other->time_s, other->rate_dps, "#aaaaaa"});
+  }
+  f.panels = regulated ? std::vector<plot::Panel>{temps, err, tec, bias, rate}
+                       : std::vector<plot::Panel>{temps, tec, bias, rate};
+  // Segment letters where they are letters (seed Fig. 26's A..P), not a
+  // 49-segment chamber programme whose names would overprint each other.
+  bool short_names = profile.segments().size() <= 30;
+  for (const auto& seg : profile.segments()) short_names = short_names && seg.name.size() <= 2;
+  if (short_names) {
+    for (const auto& seg : profile.segments()) {
+      if (seg.end_s > seg.start_s) f.segments.push_back({seg.name, seg.start_s, seg.end_s});
+    }
+  }
   return f;
 }
 
@@ -260,6 +342,9 @@ void run(const SimulateOptions& o) {
   if (!o.out.empty()) prepare_output_dir(o.out, "--out");
   if (!o.plot.empty()) prepare_output_file(o.plot, "--plot");
   if (!o.rate_csv.empty()) prepare_output_file(o.rate_csv, "--rate-csv");
+  if (!o.compare.empty() && o.plot.empty()) throw InputError("--compare: only with --plot (it overlays the plot)");
+  std::optional<ComparedRun> compared;
+  if (!o.compare.empty()) compared = read_compared_run(o.compare);
   const bool experiment = o.profile == "tune";
   const tune::ExperimentPlan plan = tune::ExperimentPlan{}.scaled(o.experiment_scale);
   const model::ChamberProfile profile = experiment ? tune_experiment_room(o.ambient_c, plan)
@@ -309,7 +394,10 @@ void run(const SimulateOptions& o) {
   std::optional<std::string> csv_path;
   std::optional<std::string> plot_path;
   if (!o.plot.empty()) {
-    plot::write_svg(simulation_figure(result, o, setup.scale_mv_per_dps), o.plot);
+    const bool regulated = o.controller != "off" && !experiment;
+    plot::write_svg(simulation_figure(result, o, setup.scale_mv_per_dps, profile, setup.plant.current_limit_a,
+                                      regulated, compared),
+                    o.plot);
     plot_path = o.plot;
   }
   nlohmann::json j = summary_json(o, calibration_name, result, wall_s);
@@ -388,11 +476,14 @@ void add_simulate_command(CLI::App& app) {
   cmd->add_option("--out", options->out,
                   "directory for simulation.csv (1 Hz time series) and summary.json");
   cmd->add_option("--plot", options->plot,
-                  "SVG plot: casing, setpoint and ambient temperature with the TEC current; the rate before "
-                  "and after compensation")
+                  "SVG plot, stacked panels on one time axis: temperatures; casing error with the +/-0.3 C "
+                  "band; TEC current on the stage's range; bias before and rate after compensation")
       ->check([](const std::string& p) {
         return p.size() >= 4 && p.compare(p.size() - 4, 4, ".svg") == 0 ? std::string() : "only .svg is supported";
       });
+  cmd->add_option("--compare", options->compare,
+                  "RUN_DIR: overlay another run (the --out folder of an earlier simulate) on --plot, dashed grey: "
+                  "casing, error, TEC current and compensated rate on the same axes");
   cmd->add_option("--rate-csv", options->rate_csv,
                   "write the compensated rate of every ADC sample in --rate-window (time_s,rate_dps) for "
                   "`gyrotc allan`");

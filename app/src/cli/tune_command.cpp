@@ -28,24 +28,30 @@ struct TuneOptions {
   bool json = false;
 };
 
-// The record's reading against the model's, and the residual.
+// The record's casing reading (wide, light) under the identified model's
+// (thin, dark), the residual between them, and the current that drove both.
 plot::Figure fit_figure(const TuneInput& in, const TuneResult& r) {
   plot::Figure f;
-  f.title = "gyrotc tune: " + in.source;
+  f.title = "gyrotc tune: the identified model against " + in.source;
   f.x.title = "time (s)";
-  plot::Series measured{"sensor_c (record)", in.record.time_s, in.record.sensor_c, "", false, false};
-  plot::Series model{"model", in.record.time_s, r.fit.prediction, "", false, false};
-  plot::Series current{"tec_a (commanded)", in.record.time_s, in.record.tec_a, "", false, true};
-  plot::Series residual{"record - model", in.record.time_s, {}, "", false, false};
+  f.x.tight = true;
+  f.panel_height_px = 200.0;
+  plot::Series measured{"casing reading (record)", in.record.time_s, in.record.sensor_c, "#9ecae1"};
+  measured.width_px = 5.0;
+  plot::Series model{"model", in.record.time_s, r.fit.prediction, "#d62728"};
+  plot::Series current{"TEC current (commanded)", in.record.time_s, in.record.tec_a, "#ff7f0e"};
+  plot::Series residual{"record - model", in.record.time_s, {}, "#555555"};
   for (std::size_t k = 0; k < in.record.time_s.size(); ++k) residual.y.push_back(in.record.sensor_c[k] - r.fit.prediction[k]);
   plot::Panel top;
-  top.y.title = "casing reading (C)";
-  top.y2.title = "TEC current (A)";
-  top.series = {measured, model, current};
+  top.y.title = "casing (°C)";
+  top.series = {measured, model};
+  plot::Panel middle;
+  middle.y.title = "residual (°C)";
+  middle.series = {residual};
   plot::Panel bottom;
-  bottom.y.title = "residual (C)";
-  bottom.series = {residual};
-  f.panels = {top, bottom};
+  bottom.y.title = "TEC (A)";
+  bottom.series = {current};
+  f.panels = {top, middle, bottom};
   return f;
 }
 

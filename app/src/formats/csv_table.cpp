@@ -122,7 +122,11 @@ std::size_t CsvTable::index_of(std::string_view column) const {
   throw InputError(path_ + ": missing column '" + std::string(column) + "' (columns: " + have + ")");
 }
 
-std::vector<double> CsvTable::numbers(std::string_view column) const {
+std::vector<double> CsvTable::numbers(std::string_view column) const { return parse_numbers(column, false); }
+
+std::vector<double> CsvTable::numbers_or_nan(std::string_view column) const { return parse_numbers(column, true); }
+
+std::vector<double> CsvTable::parse_numbers(std::string_view column, bool nan_allowed) const {
   const std::size_t col = index_of(column);
   std::vector<double> out;
   out.reserve(rows());
@@ -132,6 +136,10 @@ std::vector<double> CsvTable::numbers(std::string_view column) const {
       return path_ + ":" + std::to_string(lines_[r]) + ": column '" + std::string(column) + "': ";
     };
     if (text.empty()) throw InputError(where() + "empty cell");
+    if (nan_allowed && (text == "nan" || text == "-nan" || text == "NaN")) {
+      out.push_back(std::numeric_limits<double>::quiet_NaN());
+      continue;
+    }
     // from_chars takes no leading '+', which a CSV writer may put there.
     const std::string_view digits = text.front() == '+' ? text.substr(1) : text;
     double v = 0.0;

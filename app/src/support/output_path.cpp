@@ -21,7 +21,9 @@ namespace {
 
 // Creates `dir` itself if it is missing, never a chain of parents: a
 // mistyped path is refused rather than built.
-void make_writable_dir(const fs::path& dir, const std::string& option, const std::string& shown) {
+void make_writable_dir(fs::path dir, const std::string& option, const std::string& shown) {
+  // "out/" names the folder "out": its parent is ".", not "out".
+  while (!dir.empty() && !dir.has_filename() && dir != dir.root_path()) dir = dir.parent_path();
   std::error_code ec;
   if (!dir.empty() && !fs::is_directory(dir, ec)) {
     if (fs::exists(dir, ec)) refuse(option, shown, "'" + dir.string() + "' is not a folder");

@@ -20,23 +20,6 @@ constexpr const char* kNeeds =
     "gyrotc tune needs time_s, sensor_c and tec_a (and ambient_c when the board has an ambient sensor), as "
     "`gyrotc record --experiment tune` and `gyrotc simulate --profile tune` write them";
 
-std::vector<double> numbers_or_nan(const CsvTable& table, const char* column) {
-  std::vector<double> out;
-  const std::vector<std::string> cells = table.text(column);
-  out.reserve(cells.size());
-  for (std::size_t row = 0; row < cells.size(); ++row) {
-    const std::string& cell = cells[row];
-    char* end = nullptr;
-    const double v = std::strtod(cell.c_str(), &end);
-    if (end == cell.c_str() || *end != '\0') {
-      throw InputError(table.path() + ":" + std::to_string(table.line_of(row)) + ": column '" + column + "': '" +
-                       cell + "' is not a number");
-    }
-    out.push_back(v);  // nan: no reading yet
-  }
-  return out;
-}
-
 double seconds_since(std::chrono::steady_clock::time_point start) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 }
@@ -82,13 +65,13 @@ TuneInput read_tune_record(const std::string& path) {
   in.record.sensor_c = table.numbers("sensor_c");
   in.record.tec_a = table.numbers("tec_a");
   if (table.has("ambient_c")) {
-    in.record.ambient_c = numbers_or_nan(table, "ambient_c");
+    in.record.ambient_c = table.numbers_or_nan("ambient_c");
     if (std::none_of(in.record.ambient_c.begin(), in.record.ambient_c.end(), [](double v) { return std::isfinite(v); })) {
       in.record.ambient_c.clear();  // a board without the ambient sensor writes nan
     }
   }
   if (table.has("setpoint_c")) {
-    std::vector<double> sp = numbers_or_nan(table, "setpoint_c");
+    std::vector<double> sp = table.numbers_or_nan("setpoint_c");
     sp.erase(std::remove_if(sp.begin(), sp.end(), [](double v) { return !std::isfinite(v); }), sp.end());
     if (!sp.empty()) {
       std::nth_element(sp.begin(), sp.begin() + static_cast<std::ptrdiff_t>(sp.size() / 2), sp.end());

@@ -1,5 +1,6 @@
 #include "gyrotc/app/formats/csv_table.hpp"
 
+#include <cmath>
 #include <string>
 
 #include "gyrotc/app/support/errors.hpp"
@@ -29,6 +30,18 @@ TEST_CASE("a non-numeric cell is reported with file, line and column") {
 TEST_CASE("NaN and empty cells are rejected with their line") {
   CHECK(error_of("temp_c,gyro_mv\n1,nan\n") == "in.csv:2: column 'gyro_mv': 'nan' is not a finite number");
   CHECK(error_of("temp_c,gyro_mv\n1,\n") == "in.csv:2: column 'gyro_mv': empty cell");
+}
+
+TEST_CASE("numbers_or_nan reads a writer's 'nan' as NaN and still refuses text and infinities") {
+  const auto t = CsvTable::parse("t,rate_dps\n1,nan\n2,0.5\n", "in.csv");
+  const auto v = t.numbers_or_nan("rate_dps");
+  REQUIRE(v.size() == 2);
+  CHECK(std::isnan(v[0]));
+  CHECK(v[1] == 0.5);
+  CHECK(gyrotc::test::input_error_of([] { CsvTable::parse("t,x\n1,abc\n", "in.csv").numbers_or_nan("x"); }) ==
+        "in.csv:2: column 'x': 'abc' is not a number");
+  CHECK(gyrotc::test::input_error_of([] { CsvTable::parse("t,x\n1,inf\n", "in.csv").numbers_or_nan("x"); }) ==
+        "in.csv:2: column 'x': 'inf' is not a finite number");
 }
 
 TEST_CASE("a missing column names the columns that are there") {

@@ -4,13 +4,16 @@
 
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <string>
+#include <vector>
 
 #include "gyrotc/app/cli/commands.hpp"
 #include "gyrotc/app/support/errors.hpp"
 #include "gyrotc_catch.hpp"
 #include "test_paths.hpp"
 #include "run_command.hpp"
+#include "input_error_of.hpp"
 
 using namespace gyrotc::app;
 namespace fs = std::filesystem;
@@ -82,6 +85,13 @@ TEST_CASE("a missing output folder is created") {
   CHECK(fs::is_directory(dir));
 }
 
+TEST_CASE("a missing output folder written with a trailing slash is created, like the same name without") {
+  Scratch s("dir_slash");
+  const fs::path dir = s.dir / "x";
+  prepare_output_dir(dir.string() + "/", "--out");
+  CHECK(fs::is_directory(dir));
+}
+
 TEST_CASE("an output folder that exists as a file is refused") {
   Scratch s("dir_file");
   std::ofstream(s.dir / "f") << "x";
@@ -102,4 +112,27 @@ TEST_CASE("simulate writes its time series, summary and plot into a folder that 
   CHECK(fs::exists(out / "simulation.csv"));
   CHECK(fs::exists(out / "summary.json"));
   CHECK(fs::exists(out / "run.svg"));
+}
+
+TEST_CASE("simulate --compare overlays another run's folder, and refuses a folder without a run before running") {
+  Scratch s("compare");
+  const fs::path first = s.dir / "first";
+  const std::vector<std::string> quick = {"--profile", "table2", "--controller", "off", "--sample-rate-hz", "5"};
+  auto with = [&](std::vector<std::string> extra) {
+    std::vector<std::string> args = quick;
+    args.insert(args.end(), extra.begin(), extra.end());
+    return args;
+  };
+  gyrotc::test::run_command(add_simulate_command, "simulate", with({"--out", first.string()}));
+  gyrotc::test::run_command(add_simulate_command, "simulate",
+                            with({"--plot", (s.dir / "both.svg").string(), "--compare", first.string()}));
+  std::ifstream svg(s.dir / "both.svg");
+  const std::string text((std::istreambuf_iterator<char>(svg)), std::istreambuf_iterator<char>());
+  CHECK(text.find("TEC, vs first") != std::string::npos);
+  const std::string why = gyrotc::test::input_error_of([&] {
+    gyrotc::test::run_command(add_simulate_command, "simulate",
+                              with({"--plot", (s.dir / "x.svg").string(), "--compare", s.dir.string()}));
+  });
+  CHECK(why == "--compare " + s.dir.string() + ": no simulation.csv there (the --out folder of another simulate run)");
+  CHECK_FALSE(fs::exists(s.dir / "x.svg"));
 }

@@ -142,3 +142,117 @@ TEST_CASE("an empty series, a figure without panels or mismatched x/y are errors
   f.panels[0].series[0] = line("nan", {1, 2}, {std::nan(""), std::nan("")});
   CHECK_THROWS_AS(render_svg(f), std::invalid_argument);
 }
+
+namespace {
+
+// The points of the first series path, in pixels.
+std::vector<std::pair<double, double>> path_points(const std::string& svg) {
+  std::smatch m;
+  const std::regex re("<path class=\"series\"[^>]* d=\"([^\"]*)\"");
+  std::vector<std::pair<double, double>> out;
+  if (!std::regex_search(svg, m, re)) return out;
+  const std::string d = m[1];
+  const std::regex pt("[ML]([-0-9.]+) ([-0-9.]+)");
+  for (auto it = std::sregex_iterator(d.begin(), d.end(), pt); it != std::sregex_iterator(); ++it) {
+    out.emplace_back(std::stod((*it)[1]), std::stod((*it)[2]));
+  }
+  return out;
+}
+
+Figure one_series(Series s) {
+  Figure f;
+  f.title = "t";
+  Panel p;
+  p.series = {std::move(s)};
+  f.panels = {p};
+  return f;
+}
+
+}  // namespace
+
+TEST_CASE("a series denser than the pixels is drawn from each column's extremes, a one-sample spike kept") {
+  std::vector<double> x, y;
+  for (int i = 0; i < 100000; ++i) {
+    x.push_back(i);
+    y.push_back(std::sin(i * 1e-4));
+  }
+  y[54321] = 5.0;  // one sample: the plot must still show it
+  const std::string svg = render_svg(one_series(line("dense", x, y)));
+  const auto pts = path_points(svg);
+  const Figure f = one_series(line("dense", x, y));
+  CHECK(pts.size() <= static_cast<std::size_t>(4 * f.width_px));
+  CHECK(pts.size() > 500);
+  const double top = std::min_element(pts.begin(), pts.end(), [](auto a, auto b) { return a.second < b.second; })->second;
+  CHECK(top == Approx(40.0).margin(0.2));  // the spike reaches the panel's top (5 is the range's maximum)
+  CHECK(svg.size() < 60000);
+}
+
+TEST_CASE("fixed limits hold whatever the data, ticks stay inside them, the data outside is clipped") {
+  Series s = line("e", {0, 1, 2}, {-30.0, 0.1, 0.2});
+  Figure f = one_series(s);
+  f.panels[0].y.min = -1.0;
+  f.panels[0].y.max = 1.0;
+  const std::string svg = render_svg(f);
+  const std::regex re("<text class=\"tick-y\"[^>]*>([^<]*)</text>");
+  std::vector<double> ticks;
+  for (auto it = std::sregex_iterator(svg.begin(), svg.end(), re); it != std::sregex_iterator(); ++it) {
+    ticks.push_back(std::stod((*it)[1]));
+  }
+  REQUIRE(ticks.size() >= 3);
+  CHECK(ticks.front() == Approx(-1.0));
+  CHECK(ticks.back() == Approx(1.0));
+  CHECK(svg.find("clip-path=\"url(#clip0)\"") != std::string::npos);
+}
+
+TEST_CASE("an axis with one fixed limit, or max below min, is refused") {
+  Figure f = one_series(line("a", {0, 1}, {0, 1}));
+  f.panels[0].y.min = 0.0;
+  CHECK_THROWS_WITH(render_svg(f), Catch::Contains("one fixed limit"));
+  f.panels[0].y.max = -1.0;
+  CHECK_THROWS_WITH(render_svg(f), Catch::Contains("max <= min"));
+}
+
+TEST_CASE("a tight x axis ends at the data, not at the next round tick") {
+  Figure f = one_series(line("a", {0, 17460}, {0, 1}));
+  f.x.tight = true;
+  const auto ticks = x_tick_labels(render_svg(f));
+  REQUIRE_FALSE(ticks.empty());
+  CHECK(ticks.back().second != "20000");
+  f.x.tight = false;
+  CHECK(x_tick_labels(render_svg(f)).back().second == "20000");
+}
+
+TEST_CASE("legends sit right of the data, and a series without a label has no entry") {
+  Figure f = one_series(line("shown", {0, 1}, {0, 1}));
+  f.panels[0].series.push_back(line("", {0, 1}, {1, 0}));
+  const std::string svg = render_svg(f);
+  const double plot_right = f.width_px - f.legend_width_px;
+  const std::regex re("<text class=\"legend\" x=\"([0-9.]+)\"[^>]*>([^<]*)</text>");
+  int entries = 0;
+  for (auto it = std::sregex_iterator(svg.begin(), svg.end(), re); it != std::sregex_iterator(); ++it) {
+    ++entries;
+    CHECK(std::stod((*it)[1]) > plot_right);
+    CHECK((*it)[2] == "shown");
+  }
+  CHECK(entries == 1);
+}
+
+TEST_CASE("segments label their stretch above the top panel and mark their start in every panel") {
+  Figure f = one_series(line("a", {0, 100}, {0, 1}));
+  f.panels.push_back(f.panels[0]);
+  f.segments = {{"B", 0, 40}, {"C", 40, 100}};
+  const std::string svg = render_svg(f);
+  CHECK(svg.find(">B</text>") != std::string::npos);
+  CHECK(svg.find(">C</text>") != std::string::npos);
+  std::size_t lines = 0;
+  for (std::size_t i = 0; (i = svg.find("<line class=\"segment\"", i)) != std::string::npos; ++i) ++lines;
+  CHECK(lines == 2);  // C's start in both panels; B starts at the axis' edge
+}
+
+TEST_CASE("a band is shaded and named in the legend") {
+  Figure f = one_series(line("e", {0, 1}, {-1, 1}));
+  f.panels[0].bands = {{"±0.3 °C band", -0.3, 0.3, "#2ca02c", false}};
+  const std::string svg = render_svg(f);
+  CHECK(svg.find("<rect class=\"band\"") != std::string::npos);
+  CHECK(svg.find(">±0.3 °C band</text>") != std::string::npos);
+}

@@ -32,6 +32,9 @@ class CsvTable {
   // The column as finite doubles; throws naming the line of a bad cell, or
   // the missing column and the columns that are there.
   std::vector<double> numbers(std::string_view column) const;
+  // As numbers(), but a cell "nan" (a writer's "no value in this period",
+  // e.g. no sensor reading yet) is NaN.
+  std::vector<double> numbers_or_nan(std::string_view column) const;
   std::vector<std::string> text(std::string_view column) const;
 
   // Throws if the column's values are not strictly increasing (e.g. time_s).
@@ -39,6 +42,7 @@ class CsvTable {
 
  private:
   static CsvTable parse_owned(std::string text, const std::string& name);
+  std::vector<double> parse_numbers(std::string_view column, bool nan_allowed) const;
   std::size_t index_of(std::string_view column) const;
   std::string_view cell(std::size_t row, std::size_t col) const { return cells_[row * columns_.size() + col]; }
 

@@ -1,0 +1,66 @@
+#!/usr/bin/env bash
+# Regenerates every picture in the docs from the commands the docs show, so a
+# figure cannot go stale silently: builds gyrotc and tune_suite (release
+# preset), runs them, and writes docs/figures/*.svg and docs/tuning/ (with
+# docs/TUNING.md's generated section). Prints each command before it runs it;
+# on a failure, prints the command and the last lines of its output and exits
+# non-zero. About 2 minutes after the build.
+#   scripts/docs-figures.sh            regenerate
+#   scripts/docs-figures.sh --help     this text
+set -euo pipefail
+cd "$(dirname "$0")/.."
+if [[ ${1:-} == -h || ${1:-} == --help ]]; then
+  sed -n '2,9p' "$0" | sed 's/^# \{0,1\}//'
+  exit 0
+fi
+if [[ $# -gt 0 ]]; then
+  echo "docs-figures.sh: unknown argument '$1' (see --help)" >&2
+  exit 2
+fi
+
+cmake --preset release >/dev/null
+cmake --build --preset release -j "${JOBS:-$(nproc)}" --target gyrotc tune_suite >/dev/null
+gyrotc=$PWD/build/release/app/gyrotc
+work=$PWD/build/release/docs-figures
+figures=$PWD/docs/figures
+rm -rf "$work"
+mkdir -p "$work" "$figures"
+cd "$work"
+
+step() {
+  echo "+ $*"
+  if ! "$@" >"$work/last.log" 2>&1; then
+    echo "docs-figures.sh: failed: $*" >&2
+    tail -n 20 "$work/last.log" >&2
+    exit 1
+  fi
+}
+
+# README and the guide's simulate section: the main job, and the two controllers compared.
+step "$gyrotc" simulate --profile fig26 --controller tuned --out tuned
+step "$gyrotc" simulate --profile fig26 --controller paper --out paper --plot "$figures/fig26.svg"
+step "$gyrotc" simulate --profile fig26 --controller paper --out paper --plot "$figures/fig26-vs-tuned.svg" --compare tuned
+
+# The guide's allan section: the compensated rate with the loop on.
+printf "time_s,ambient_c\n0,25\n1500,25\n" > flat.csv
+step "$gyrotc" simulate --profile flat.csv --controller paper --sample-rate-hz 100 \
+  --rate-csv rate_on.csv --rate-window 900:1500
+step "$gyrotc" allan --data rate_on.csv --plot "$figures/allan.svg"
+
+# The guide's tune section: the identification experiment and the model fitted to it.
+step "$gyrotc" simulate --profile tune --out tune
+step "$gyrotc" tune --data tune/record.csv --out controller.toml --plot "$figures/tune.svg"
+
+# The guide's identify example: a die lagging the casing by a further 300 s.
+printf "time_s,ambient_c\n0,25\n1800,25\n3000,45\n4800,45\n7200,5\n9000,5\n10200,25\n12000,25\n" > ramps.csv
+printf "[effects.thermal_lag]\ntau_s = 300\n" > hidden.toml
+: > base.toml
+step "$gyrotc" simulate --profile ramps.csv --controller off --plant hidden.toml --sample-rate-hz 100 --out meas/
+step "$gyrotc" identify --data meas/simulation.csv --plant base.toml --report report/ --out-plant found.toml
+cp report/plot.svg "$figures/identify.svg"
+
+# docs/TUNING.md's generated section and docs/tuning/*.svg.
+cd - >/dev/null
+step build/release/tools/tune_suite --random 30 --seed 1
+
+echo "docs-figures.sh: wrote $(ls "$figures" | wc -l) figures in docs/figures/ and docs/tuning/ (git diff shows what changed)"
