@@ -1,8 +1,10 @@
 #!/usr/bin/env bash
 # The whole test suite, as CI runs it: installs what is missing, then builds
-# and tests (1) natively with AddressSanitizer + UBSan and (2) cross-compiled
-# for aarch64 with the tests run under qemu-aarch64. Warnings are errors.
-# Exits non-zero if anything fails. Build trees: build/debug-asan, build/aarch64.
+# and tests (1) natively with AddressSanitizer + UBSan, (2) cross-compiled
+# for aarch64 with the tests run under qemu-aarch64 and (3) the commands the
+# README and docs/ show, run with the release gyrotc (ctest -L docs). Warnings
+# are errors in (1) and (2). Exits non-zero if anything fails. Build trees:
+# build/debug-asan, build/aarch64, build/release.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
@@ -22,4 +24,11 @@ run_preset() {
 run_preset debug-asan
 run_preset aarch64
 echo "=== aarch64 test binary: $(file -b build/aarch64/tests/test_app_csv | cut -d, -f1-2)"
+
+echo "=== [release] the documented commands"
+cmake --preset release >/dev/null
+targets=(gyrotc)
+if cmake --build --preset release --target help | grep 'gyrotc-emu$' >/dev/null; then targets+=(gyrotc-emu); fi
+cmake --build --preset release -j "$jobs" --target "${targets[@]}"
+ctest --preset release -L docs || status=1
 exit $status
