@@ -1,11 +1,11 @@
 #!/usr/bin/env bash
-# The benchmark suite (issue 10), in one command: installs what is missing,
+# The benchmark suite, in one command: installs what is missing,
 # builds Release with the benchmarks, runs
 #   1. bench/per_sample       per-sample cost of every piece and of the whole path
 #   2. loop latency           `gyrotc run` on the simulated board, then cyclictest
 #                             with the same period, priority and duration
 #   3. throughput             fig26 simulation at 1 kHz, every `gyrotc fit` method on
-#                             seed Table 2, `gyrotc identify` on a 24 h 1 Hz record,
+#                             the paper's Table 2, `gyrotc identify` on a 24 h 1 Hz record,
 #                             each as a subprocess with its peak memory
 # and writes the results as Markdown to docs/BENCHMARKS.md.
 #
@@ -144,7 +144,7 @@ measure simulate "$gyrotc" simulate --profile fig26 --sample-rate-hz 1000 --json
 cli_speedup=$(jq -r '.speedup' "$tmp/simulate.out")
 simulated_h=$(jq -r '.simulated_s / 3600' "$tmp/simulate.out")
 
-echo "=== gyrotc fit on seed Table 2, every method"
+echo "=== gyrotc fit on the paper's Table 2, every method"
 fit_methods=(poly piecewise paper auto bpnn)
 for m in "${fit_methods[@]}"; do
   measure "fit_$m" "$gyrotc" fit --data data/table2_zero_bias.csv --method "$m" --json
@@ -185,7 +185,7 @@ mkdir -p "$(dirname "$out")"
   echo "|---|---|---|---|---|---|---|"
   echo "| $cpu | $(nproc) | $(uname -r) | $os | $cxx_version | Release ($build) | $load_start → $(cut -d' ' -f1-3 /proc/loadavg) |"
   echo
-  echo "## Goals (issue 10)"
+  echo "## Goals"
   echo
   echo "| goal | target | measured | met |"
   echo "|---|---|---|---|"
@@ -219,7 +219,7 @@ mkdir -p "$(dirname "$out")"
       if (n == "BM_BpInference") return "BP network inference (1-10-10-10-1)"
       if (n == "BM_Ad5060Encode") return "AD5060 encode (V → code → frame)"
       if (n == "BM_Ad5060Write") return "AD5060 driver write_v (encode, transfer)"
-      if (n == "BM_PidStep") return "one PID step (seed Eq. 17/18)"
+      if (n == "BM_PidStep") return "one PID step (Eq. 17/18 of the paper)"
       if (n ~ /^BM_SamplePath\//) return "**whole path**, " l
       if (n == "BM_SamplePathSimBoard") return "whole path through the SimBoard"
       return l

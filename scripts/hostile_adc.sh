@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The hostile-ADS1251 run (issue 21): `gyrotc run` on the simulated board in
+# The hostile-ADS1251 run: `gyrotc run` on the simulated board in
 # real time at 1 kSPS, with the simulated reader's timing randomised on top of
 # this host's own latency: wake-ups 0-300 us after the DRDY edge, 2 % of them
 # stalls of up to 3 ms (past the 937.5 us DOUT mode), edge events delivered up
