@@ -209,12 +209,16 @@ plot::Figure simulation_figure(const SimulationResult& r, const SimulateOptions&
   rate.series = {compensated};
   if (other) {
     const std::string tag = "vs " + other->label;
-    // Solid grey under this run's lines: dashes break up on 1 Hz data.
-    auto under = [](plot::Panel& p, plot::Series s) { p.series.insert(p.series.begin(), std::move(s)); };
-    under(temps, {"casing, " + tag, other->time_s, other->casing_c, "#aaaaaa"});
-    under(err, {"error, " + tag, other->time_s, other->error_c, "#aaaaaa"});
-    under(tec, {"TEC, " + tag, other->time_s, other->tec_a, "#aaaaaa"});
-    under(rate, {"rate, " + tag, other->time_s, other->rate_dps, "#aaaaaa"});
+    // A thin black line over this run's coloured one (dashes break up on
+    // 1 Hz data; under it, a calm run hides beneath a chattering one).
+    auto over = [](plot::Panel& p, plot::Series s) {
+      s.width_px = 0.9;
+      p.series.push_back(std::move(s));
+    };
+    over(temps, {"casing, " + tag, other->time_s, other->casing_c, "#000000"});
+    over(err, {"error, " + tag, other->time_s, other->error_c, "#000000"});
+    over(tec, {"TEC, " + tag, other->time_s, other->tec_a, "#000000"});
+    over(rate, {"rate, " + tag, other->time_s, other->rate_dps, "#000000"});
   }
   f.panels = regulated ? std::vector<plot::Panel>{temps, err, tec, bias, rate}
                        : std::vector<plot::Panel>{temps, tec, bias, rate};
@@ -482,7 +486,7 @@ void add_simulate_command(CLI::App& app) {
         return p.size() >= 4 && p.compare(p.size() - 4, 4, ".svg") == 0 ? std::string() : "only .svg is supported";
       });
   cmd->add_option("--compare", options->compare,
-                  "RUN_DIR: overlay another run (the --out folder of an earlier simulate) on --plot, dashed grey: "
+                  "RUN_DIR: overlay another run (the --out folder of an earlier simulate) on --plot, thin black: "
                   "casing, error, TEC current and compensated rate on the same axes");
   cmd->add_option("--rate-csv", options->rate_csv,
                   "write the compensated rate of every ADC sample in --rate-window (time_s,rate_dps) for "
