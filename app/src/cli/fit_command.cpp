@@ -17,10 +17,12 @@
 #include "gyrotc/algorithms/fit/compensator.hpp"
 #include "gyrotc/algorithms/fit/cross_validation.hpp"
 #include "gyrotc/algorithms/fit/fit_method.hpp"
+#include "gyrotc/algorithms/fit/record_screen.hpp"
 #include "gyrotc/algorithms/stats/summary.hpp"
 #include "gyrotc/app/formats/calibration_file.hpp"
 #include "gyrotc/app/cli/commands.hpp"
 #include "gyrotc/app/formats/csv_table.hpp"
+#include "gyrotc/app/runtime/controller.hpp"
 #include "gyrotc/app/support/errors.hpp"
 #include "gyrotc/app/support/progress.hpp"
 #include "gyrotc/app/support/output_path.hpp"
@@ -48,12 +50,14 @@ struct FitOptions {
   int restarts = 3;
   double bin_width_c = 1.0;
   double scale_mv_per_dps = fit::Compensator::kSeedScaleMvPerDps;
+  std::vector<std::string> accept;  // record checks overridden: span, uneven, unsettled
 };
 
 struct Points {
   std::vector<double> temp_c;
   std::vector<double> gyro_mv;
-  std::string kind;  // "table" or "time series (N samples, W C bins)"
+  std::string kind;                   // "table" or "time series (N samples, W C bins)"
+  std::vector<std::string> accepted;  // "check: reason" of each refusal --accept overrode
 };
 
 // A Table 2-like file: one row per temperature.
@@ -76,11 +80,64 @@ Points read_table(const CsvTable& table) {
   return p;
 }
 
+// What to do about each refusal of fit::screen_calibration_record.
+const char* screen_advice(fit::ScreenCheck check) {
+  switch (check) {
+    case fit::ScreenCheck::held:
+      return "record the sweep with the loop off (`gyrotc record --pid off`, the chamber sweeping)";
+    case fit::ScreenCheck::span:
+      return "sweep a wider range (or --accept span)";
+    case fit::ScreenCheck::uneven:
+      return "hold every temperature about as long, or bin wider with --bin-width (or --accept uneven)";
+    case fit::ScreenCheck::unsettled:
+      return "sweep slower or hold each temperature until it settles (or --accept unsettled)";
+  }
+  return "";
+}
+
+// A record that cannot calibrate is refused before the fit (the fit would
+// still make a model, and a flattering error figure).
+std::vector<std::string> screen_record(const CsvTable& table, const std::vector<double>& time_s,
+                                       const std::vector<double>& sensor_c, const FitOptions& o) {
+  fit::RecordSamples record{time_s, sensor_c, std::nullopt, std::nullopt};
+  std::vector<double> setpoint_c;
+  if (table.has("setpoint_c") && table.has("flags")) {
+    setpoint_c = table.numbers("setpoint_c");
+    std::vector<bool> tec_on;
+    for (double f : table.numbers("flags")) {
+      tec_on.push_back((static_cast<unsigned long long>(f) & kFlagTecOff) == 0);
+    }
+    record.setpoint_c = std::span<const double>(setpoint_c);
+    record.tec_on = std::move(tec_on);
+  }
+  fit::ScreenLimits limits;
+  limits.bin_width_c = o.bin_width_c;
+  if (!o.orders.empty()) {
+    const int order = *std::max_element(o.orders.begin(), o.orders.end());
+    limits.min_bins = std::max(limits.min_bins, static_cast<std::size_t>(3 * (order + 1)));
+  }
+  std::vector<std::string> accepted;
+  for (const fit::ScreenFinding& f : fit::screen_calibration_record(record, limits)) {
+    const std::string name = fit::screen_check_name(f.check);
+    // --accept takes span, uneven and unsettled only: held is never overridden.
+    if (std::find(o.accept.begin(), o.accept.end(), name) == o.accept.end()) {
+      throw InputError(table.path() + ": cannot calibrate (" + name + "): " + f.reason + "; " +
+                       screen_advice(f.check));
+    }
+    std::fprintf(stderr, "gyrotc fit: warning: %s: accepted (%s): %s\n", table.path().c_str(), name.c_str(),
+                 f.reason.c_str());
+    accepted.push_back(name + ": " + f.reason);
+  }
+  return accepted;
+}
+
 // A recording (time_s, sensor_c, gyro_mv): averaged in temperature bins.
-Points read_series(const CsvTable& table, double bin_width_c) {
+Points read_series(const CsvTable& table, const FitOptions& o) {
+  const double bin_width_c = o.bin_width_c;
   table.require_increasing("time_s");
   const std::vector<double> temp = table.numbers("sensor_c");
   const std::vector<double> gyro = table.numbers("gyro_mv");
+  std::vector<std::string> accepted = screen_record(table, table.numbers("time_s"), temp, o);
   struct Bin {
     double temp_sum = 0.0;
     double gyro_sum = 0.0;
@@ -101,13 +158,14 @@ Points read_series(const CsvTable& table, double bin_width_c) {
   char buf[96];
   std::snprintf(buf, sizeof buf, "time series, %zu samples in %g C bins", temp.size(), bin_width_c);
   p.kind = buf;
+  p.accepted = std::move(accepted);
   return p;
 }
 
 Points read_points(const FitOptions& o) {
   const CsvTable table = CsvTable::read(o.data);
   if (table.has("temp_c")) return read_table(table);
-  if (table.has("sensor_c")) return read_series(table, o.bin_width_c);
+  if (table.has("sensor_c")) return read_series(table, o);
   std::string have;
   for (const auto& c : table.columns()) have += (have.empty() ? "" : ", ") + c;
   throw InputError(o.data + ": missing column 'temp_c' (a table with temp_c, gyro_mv) or 'sensor_c' (a "
@@ -326,7 +384,8 @@ void run_single(const FitOptions& o) {
                           f.errors.loo_max_abs / s,
                           f.errors.loo_rms / s,
                           nested_max,
-                          nested_rms};
+                          nested_rms,
+                          p.accepted};
     save_calibration(f.model, o.out, s, src);
   }
   if (o.json) {
@@ -539,6 +598,13 @@ void add_fit_command(CLI::App& app) {
       ->capture_default_str();
   cmd->add_option("--bin-width", opts->bin_width_c, "Time-series input: temperature bin width (C)")
       ->capture_default_str();
+  cmd->add_option("--accept", opts->accept,
+                  "Time-series input: fit despite these refusals, each a judgement call (the calibration\n"
+                  "file's [source] then lists them): span (under 20 C or 8 bins, or 3 per coefficient),\n"
+                  "uneven (fullest bin over 10x the median), unsettled (a bin where the casing moved\n"
+                  "faster than 0.5 C/min). A record the TEC held at its setpoint is always refused")
+      ->delimiter(',')
+      ->check(CLI::IsMember({"span", "uneven", "unsettled"}));
   cmd->add_option("--scale", opts->scale_mv_per_dps, "Scale factor, mV/(deg/s) (seed Table 2: 8.774)")
       ->capture_default_str();
   cmd->callback([opts] {

@@ -336,6 +336,12 @@ std::string format_calibration(const fit::BiasModel& model, double scale_mv_per_
       s += "nested_loo_max_abs_dps = " + format_number(*source.nested_loo_max_abs_dps) + "\n";
       s += "nested_loo_rms_dps = " + format_number(*source.nested_loo_rms_dps) + "\n";
     }
+    if (!source.accepted.empty()) {
+      s += "# record checks overridden with `gyrotc fit --accept`\n";
+      s += "accepted = [";
+      for (std::size_t i = 0; i < source.accepted.size(); ++i) s += (i ? ", " : "") + quoted(source.accepted[i]);
+      s += "]\n";
+    }
   }
   auto polynomial = [&](const fit::Polynomial& p) {
     s += "# bias_mv = sum of coefficients_mv[k] * x^k, x = (T - center_c) / scale_c\n";

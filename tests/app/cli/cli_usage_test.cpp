@@ -144,3 +144,20 @@ TEST_CASE("an output folder that cannot be made is refused before the run", "[cl
   CHECK(run.err.find("--out") != std::string::npos);
   CHECK(run.out.empty());  // nothing simulated
 }
+
+TEST_CASE("record without --pid or --experiment is a usage error naming the choice, before the board is touched",
+          "[cli]") {
+  const CliRun run = run_gyrotc({"record", "--config", "no-such-config.toml", "--out", "never-written.csv"});
+  CHECK(run.status == 2);
+  CHECK(run.err.rfind("gyrotc: error: record: say what drives the TEC: --pid off", 0) == 0);
+  CHECK(run.err.find("--experiment tune") != std::string::npos);
+  CHECK(run.err.find("no-such-config.toml") == std::string::npos);  // refused before the config was read
+  CHECK_FALSE(std::filesystem::exists("never-written.csv"));
+}
+
+TEST_CASE("record with both --pid and --experiment is a usage error: the experiment drives the TEC", "[cli]") {
+  const CliRun run = run_gyrotc(
+      {"record", "--config", "no-such-config.toml", "--out", "never-written.csv", "--pid", "on", "--experiment", "tune"});
+  CHECK(run.status == 2);
+  CHECK(run.err.find("choose one") != std::string::npos);
+}

@@ -78,14 +78,14 @@ TEST_CASE("record --experiment tune drives the TEC through the real-time runner;
   CHECK(header == "time_s,sensor_c,ambient_c,gyro_mv,rate_dps_compensated,tec_a,setpoint_c,flags");
 }
 
-TEST_CASE("record --experiment tune refuses --pid off: the experiment needs the TEC") {
+TEST_CASE("record --experiment tune refuses --pid: the experiment drives the TEC itself") {
   const std::string dir = gyrotc::test::scratch_dir();
   const std::string err = dir + "/record_experiment_pid_off.err";
   const pid_t pid = spawn_gyrotc({"record", "--config", gyrotc::test::config_file("gyrotc-sim.toml"),
                                   "--experiment", "tune", "--pid", "off", "--out", dir + "/unused.csv", "--allow-non-rt"},
                                  err);
   CHECK(exit_status(pid) == 2);
-  CHECK(read_text(err).find("cannot run with the PID (TEC) off") != std::string::npos);
+  CHECK(read_text(err).find("--pid and --experiment: choose one") != std::string::npos);
 }
 
 TEST_CASE("run --controller with a file that is not a controller file exits 2 naming the file") {

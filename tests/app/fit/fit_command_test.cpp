@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <string>
 #include <vector>
 
@@ -114,15 +115,94 @@ TEST_CASE("fit --out writes a calibration the controller can load") {
 
 TEST_CASE("a time series is averaged in temperature bins") {
   std::string csv = "time_s,sensor_c,gyro_mv\n";
-  for (int i = 0; i < 200; ++i) {
-    const double t = -10.0 + 0.1 * i;  // -10 .. 9.9 C
-    csv += std::to_string(i) + "," + std::to_string(t) + "," + std::to_string(100.0 - 0.5 * t) + "\n";
+  for (int i = 0; i < 300; ++i) {
+    const double t = -10.0 + 0.1 * i;  // -10 .. 19.9 C at 0.1 C/min
+    csv += std::to_string(60 * i) + "," + std::to_string(t) + "," + std::to_string(100.0 - 0.5 * t) + "\n";
   }
   const fs::path p = write_temp("series.csv", csv);
   const auto j = nlohmann::json::parse(
       run_fit({"--data", p.string(), "--method", "poly", "--order", "1", "--bin-width", "2", "--json"}));
-  CHECK(j["points"] == 10);
+  CHECK(j["points"] == 15);
   CHECK(j["in_sample_max_abs_dps"].get<double>() < 1e-6);
+  fs::remove(p);
+}
+
+namespace {
+
+// A board record (kRecordCsvHeader) of `seconds` at 1 Hz: the casing as
+// temp(t), the TEC on and the setpoint at `setpoint_c` when `held`.
+std::string board_record(int seconds, double (*temp)(double), bool held, double setpoint_c = 55.0) {
+  std::string csv = "time_s,sensor_c,ambient_c,gyro_mv,rate_dps_compensated,tec_a,setpoint_c,flags\n";
+  for (int i = 0; i < seconds; ++i) {
+    const double t = temp(i);
+    csv += std::to_string(i) + "," + std::to_string(t) + ",16," + std::to_string(100.0 - 0.5 * t + 0.002 * t * t) +
+           ",0," + (held ? "0.8," : "0,") + std::to_string(setpoint_c) + "," + (held ? "0" : "256") + "\n";
+  }
+  return csv;
+}
+
+double slow_sweep(double s) { return -20.0 + 60.0 * s / 36000.0; }          // -20 .. 40 C in 10 h: 0.1 C/min
+double warm_up_then_hold(double s) { return s < 600.0 ? 16.0 + 39.0 * s / 600.0 : 55.0; }  // 3.9 C/min, then held
+double fast_sweep(double s) { return -20.0 + 60.0 * s / 3600.0; }          // 1 C/min
+double narrow_sweep(double s) { return 20.0 + 10.0 * s / 36000.0; }        // 10 C
+
+}  // namespace
+
+TEST_CASE("fit refuses a record the TEC held at its setpoint, says why and what to record, and writes nothing") {
+  const fs::path p = write_temp("closed_loop.csv", board_record(7200, warm_up_then_hold, true));
+  const fs::path out = fs::temp_directory_path() / (std::to_string(::getpid()) + "_closed_loop.toml");
+  const std::string e = error_of({"--data", p.string(), "--out", out.string()});
+  CHECK_THAT(e, Catch::Contains("closed_loop.csv: cannot calibrate (held): the TEC held the casing within 0.5 C of "
+                                "the setpoint 55 C for 92 % of the record"));
+  CHECK_THAT(e, Catch::Contains("gyrotc record --pid off"));
+  CHECK_FALSE(fs::exists(out));
+  // No flag overrides it: the other temperatures were passed on the way.
+  CHECK_THAT(error_of({"--data", p.string(), "--accept", "span,uneven,unsettled"}), Catch::Contains("(held)"));
+  fs::remove(p);
+}
+
+TEST_CASE("fit fits the same slow sweep the TEC did not hold") {
+  const fs::path p = write_temp("open_loop.csv", board_record(36000, slow_sweep, false));
+  const auto j = nlohmann::json::parse(run_fit({"--data", p.string(), "--method", "poly", "--order", "2", "--json"}));
+  CHECK(j["points"] == 60);
+  CHECK(j["in_sample_max_abs_dps"].get<double>() < 0.01);
+  fs::remove(p);
+}
+
+TEST_CASE("fit refuses a sweep too fast for the die to follow, and --accept unsettled fits it and says so in [source]") {
+  const fs::path p = write_temp("fast.csv", board_record(3600, fast_sweep, false));
+  CHECK_THAT(error_of({"--data", p.string()}),
+             Catch::Contains("cannot calibrate (unsettled): in 60 of 60 bins the casing moved faster than 0.5 C/min"));
+  const fs::path out = fs::temp_directory_path() / (std::to_string(::getpid()) + "_fast.toml");
+  run_fit({"--data", p.string(), "--method", "poly", "--order", "2", "--accept", "unsettled", "--out", out.string()});
+  std::ifstream in(out);
+  const std::string toml((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  CHECK_THAT(toml, Catch::Contains("accepted = [\"unsettled: in 60 of 60 bins"));
+  fs::remove(p);
+  fs::remove(out);
+}
+
+TEST_CASE("fit refuses a record that spans too little temperature for the model asked for") {
+  const fs::path p = write_temp("narrow.csv", board_record(36000, narrow_sweep, false));
+  CHECK_THAT(error_of({"--data", p.string()}),
+             Catch::Contains("cannot calibrate (span): the casing spans 20.0 .. 30.0 C in 10 bins of 1 C"));
+  const fs::path wide = write_temp("wide.csv", board_record(36000, slow_sweep, false));
+  // 60 bins are enough for a cubic, not for an order 20 polynomial (3 per coefficient).
+  CHECK_THAT(error_of({"--data", wide.string(), "--method", "poly", "--order", "20"}),
+             Catch::Contains("needs at least 20 C and 63 bins"));
+  fs::remove(p);
+  fs::remove(wide);
+}
+
+TEST_CASE("fit refuses a record whose bins hold wildly different numbers of samples") {
+  // The slow sweep, then two hours held at 40.2 C: that bin holds 11.7x the median.
+  std::string csv = board_record(36000, slow_sweep, false);
+  for (int i = 36000; i < 36000 + 7000; ++i) {
+    csv += std::to_string(i) + ",40.2,16,90,0,0,55,256\n";
+  }
+  const fs::path p = write_temp("uneven.csv", csv);
+  CHECK_THAT(error_of({"--data", p.string()}), Catch::Contains("cannot calibrate (uneven): the 40 C bin holds"));
+  CHECK_NOTHROW(run_fit({"--data", p.string(), "--method", "poly", "--order", "2", "--accept", "uneven", "--json"}));
   fs::remove(p);
 }
 

@@ -4,6 +4,7 @@
 #include <optional>
 #include <string>
 #include <string_view>
+#include <vector>
 
 #include "gyrotc/algorithms/fit/bias_model.hpp"
 
@@ -23,6 +24,8 @@ struct CalibrationSource {
   // The whole choice repeated in every fold (written when computed).
   std::optional<double> nested_loo_max_abs_dps;
   std::optional<double> nested_loo_rms_dps;
+  // The record checks `fit --accept` overrode, "check: reason" each.
+  std::vector<std::string> accepted;
 };
 
 struct Calibration {
