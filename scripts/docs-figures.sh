@@ -20,7 +20,8 @@ fi
 
 cmake --preset release >/dev/null
 cmake --build --preset release -j "${JOBS:-$(nproc)}" --target gyrotc tune_suite >/dev/null
-gyrotc=$PWD/build/release/app/gyrotc
+root=$PWD
+gyrotc=$root/build/release/app/gyrotc
 work=$PWD/build/release/docs-figures
 figures=$PWD/docs/figures
 rm -rf "$work"
@@ -40,6 +41,9 @@ step() {
 step "$gyrotc" simulate --profile fig26 --controller tuned --out tuned
 step "$gyrotc" simulate --profile fig26 --controller paper --out paper --plot "$figures/fig26.svg"
 step "$gyrotc" simulate --profile fig26 --controller paper --out paper --plot "$figures/fig26-vs-tuned.svg" --compare tuned
+
+# The guide's fit section: the calibration report of the paper's Table 2.
+step "$gyrotc" fit --data "$root/data/table2_zero_bias.csv" --method auto --plot "$figures/fit-table2.svg"
 
 # The guide's allan section: the compensated rate with the loop on.
 printf "time_s,ambient_c\n0,25\n1500,25\n" > flat.csv

@@ -191,7 +191,7 @@ void Plant::step_thermal(double h) noexcept {
 }
 
 void Plant::update_bias() noexcept {
-  bias_mv_ = table2_bias_mv(effects_.bias_temp_c()) + params_.zero_rate_offset_mv + effects_.extra_bias_mv();
+  bias_mv_ = params_.zero_bias.bias_mv(effects_.bias_temp_c()) + params_.zero_rate_offset_mv + effects_.extra_bias_mv();
 }
 
 double Plant::gyro_mv(double sample_period_s) noexcept {

@@ -8,6 +8,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
 #include <map>
 #include <optional>
 #include <stdexcept>
@@ -22,6 +23,7 @@
 #include "gyrotc/app/formats/calibration_file.hpp"
 #include "gyrotc/app/cli/commands.hpp"
 #include "gyrotc/app/formats/csv_table.hpp"
+#include "gyrotc/app/report/svg_plot.hpp"
 #include "gyrotc/app/runtime/controller.hpp"
 #include "gyrotc/app/support/errors.hpp"
 #include "gyrotc/app/support/progress.hpp"
@@ -42,6 +44,7 @@ struct FitOptions {
   std::string penalty = "jumps";
   double dof = 0.0;
   std::string out;
+  std::string plot;
   bool json = false;
   bool compare = false;
   bool nested = true;
@@ -57,6 +60,7 @@ struct Points {
   std::vector<double> temp_c;
   std::vector<double> gyro_mv;
   std::string kind;                   // "table" or "time series (N samples, W C bins)"
+  std::size_t samples = 0;            // a time series' rows (0: a table)
   std::vector<std::string> accepted;  // "check: reason" of each refusal --accept overrode
 };
 
@@ -158,6 +162,7 @@ Points read_series(const CsvTable& table, const FitOptions& o) {
   char buf[96];
   std::snprintf(buf, sizeof buf, "time series, %zu samples in %g C bins", temp.size(), bin_width_c);
   p.kind = buf;
+  p.samples = temp.size();
   p.accepted = std::move(accepted);
   return p;
 }
@@ -351,8 +356,56 @@ void print_model_text(const fit::BiasModel& m) {
   }
 }
 
+// The calibration report: the points and the model, and below them each
+// point's held-out residual (every choice repeated without it), so an
+// engineer sees where in temperature the model is trusted and by how much.
+void write_fit_plot(const FitOptions& o, const Points& p, const fit::MethodFit& f, const std::vector<double>& held_out) {
+  const double s = o.scale_mv_per_dps;
+  const auto [lo, hi] = std::minmax_element(p.temp_c.begin(), p.temp_c.end());
+  plot::Figure fig;
+  fig.title = "gyrotc fit " + std::filesystem::path(o.data).filename().string() + " (--method " + o.method + ")";
+  fig.x.title = "temperature (C)";
+  fig.x.tight = true;
+  fig.legend_width_px = 260.0;
+  fig.width_px = 1000.0;
+  fig.panel_height_px = 300.0;
+  plot::Panel values;
+  values.y.title = "zero-rate output (mV)";
+  char label[160];
+  std::snprintf(label, sizeof label, "model: %s, %.1f parameters", std::string(fit::method_name(f.method)).c_str(),
+                f.dof);
+  plot::Series model{label, {}, {}, "#1f77b4"};
+  const int steps = 600;
+  for (int i = 0; i <= steps; ++i) {
+    const double t = *lo + (*hi - *lo) * i / steps;
+    model.x.push_back(t);
+    model.y.push_back(f.model.bias_mv(t));
+  }
+  if (p.samples == 0) {
+    std::snprintf(label, sizeof label, "%zu points of the table", p.temp_c.size());
+  } else {
+    std::snprintf(label, sizeof label, "%zu bins (%g C) of %zu samples", p.temp_c.size(), o.bin_width_c, p.samples);
+  }
+  plot::Series points{label, p.temp_c, p.gyro_mv, "#888888"};
+  points.markers = true;
+  model.width_px = 1.8;
+  values.series = {points, model};  // the model over the points: dense bins would hide it
+  plot::Panel residual;
+  residual.y.title = "held-out residual (deg/s)";
+  std::vector<double> dps;
+  for (double r : held_out) dps.push_back(r / s);
+  std::snprintf(label, sizeof label, "nested LOO max %.3f, rms %.3f deg/s", stats::max_abs(held_out) / s,
+                stats::rms(held_out) / s);
+  plot::Series held{label, p.temp_c, dps, "#d62728"};
+  held.markers = true;
+  residual.series = {plot::Series{"", {*lo, *hi}, {0.0, 0.0}, "#888888", true}, held};
+  fig.panels = {values, residual};
+  plot::write_svg(fig, o.plot);
+}
+
 void run_single(const FitOptions& o) {
   if (!o.out.empty()) prepare_output_file(o.out, "--out");
+  if (!o.plot.empty()) prepare_output_file(o.plot, "--plot");
   const auto method = fit::parse_method(o.method);
   if (!method) {
     throw InputError("--method: expected poly, piecewise, spline, smooth, bpnn, paper or auto, got '" + o.method + "'");
@@ -364,7 +417,10 @@ void run_single(const FitOptions& o) {
   progress.update(0.5);
   // Without a choice the nested LOO is the plain LOO: no second pass.
   std::vector<double> nested;
-  if (o.nested && fit::method_chooses(mo)) nested = run_nested(p, mo, o.data);
+  if ((o.nested || !o.plot.empty()) && fit::method_chooses(mo)) nested = run_nested(p, mo, o.data);
+  // The plot's residuals are held out also when nothing was chosen (then
+  // nested LOO is the plain LOO).
+  if (!o.plot.empty()) write_fit_plot(o, p, f, nested.empty() ? run_nested(p, mo, o.data) : nested);
   progress.finish();
   const double s = o.scale_mv_per_dps;
   std::optional<double> nested_max;
@@ -412,6 +468,7 @@ void run_single(const FitOptions& o) {
     if (!f.candidates.empty()) j["candidates"] = candidates_json(f.candidates, s);
     j["model"] = model_json(f.model);
     if (!o.out.empty()) j["out"] = o.out;
+    if (!o.plot.empty()) j["plot"] = o.plot;
     std::printf("%s\n", j.dump(2).c_str());
     return;
   }
@@ -434,6 +491,7 @@ void run_single(const FitOptions& o) {
   print_candidates(f.candidates, s);
   print_model_text(f.model);
   if (!o.out.empty()) std::printf("wrote %s\n", o.out.c_str());
+  if (!o.plot.empty()) std::printf("wrote %s\n", o.plot.c_str());
 }
 
 void run_compare(const FitOptions& o) {
@@ -581,6 +639,9 @@ void add_fit_command(CLI::App& app) {
       ->capture_default_str();
   cmd->add_option("--dof", opts->dof, "smooth: effective parameters to fit instead of choosing the smoothing");
   cmd->add_option("--out", opts->out, "Write the calibration file (TOML) the controller loads");
+  cmd->add_option("--plot", opts->plot,
+                  "Write the calibration report (SVG): the points and the model against temperature, and\n"
+                  "below them each point's held-out (nested LOO) residual in deg/s with its max and rms");
   cmd->add_flag("--json", opts->json, "Print one JSON object instead of text");
   cmd->add_flag("--compare", opts->compare,
                 "Every method side by side: nested LOO, LOO and in-sample errors, effective\n"
@@ -615,6 +676,7 @@ void add_fit_command(CLI::App& app) {
     require_positive(opts->hidden, "--hidden");
     if (opts->compare) {
       if (!opts->out.empty()) throw InputError("--out: not with --compare (choose one method)");
+      if (!opts->plot.empty()) throw InputError("--plot: not with --compare (choose one method)");
       run_compare(*opts);
     } else {
       run_single(*opts);

@@ -100,6 +100,31 @@ void read_effect(const std::string& file, const std::string& name, const toml::t
   slot = effect;
 }
 
+std::vector<double> numbers(const std::string& file, const std::string& key, const toml::node& node) {
+  const toml::array* array = node.as_array();
+  if (array == nullptr) throw InputError(where(file, node) + ": key '" + key + "' must be a list of numbers");
+  std::vector<double> v;
+  for (const toml::node& item : *array) v.push_back(number(file, key, item));
+  return v;
+}
+
+// [gyro] zero_bias_c = [...], zero_bias_mv = [...]: both or neither.
+void read_zero_bias(const std::string& file, const toml::table& gyro, PlantParams& params) {
+  const toml::node* t = gyro.get("zero_bias_c");
+  const toml::node* v = gyro.get("zero_bias_mv");
+  if (t == nullptr && v == nullptr) return;
+  if (t == nullptr || v == nullptr) {
+    throw InputError(where(file, t != nullptr ? *t : *v) +
+                     ": keys 'gyro.zero_bias_c' and 'gyro.zero_bias_mv' come together (the curve's temperatures "
+                     "and outputs)");
+  }
+  try {
+    params.zero_bias = model::ZeroBiasCurve(numbers(file, "gyro.zero_bias_c", *t), numbers(file, "gyro.zero_bias_mv", *v));
+  } catch (const std::invalid_argument& e) {
+    throw InputError(where(file, *t) + ": keys 'gyro.zero_bias_c', 'gyro.zero_bias_mv': " + e.what());
+  }
+}
+
 }  // namespace
 
 model::PlantParams parse_plant(std::string_view text, const std::string& name) {
@@ -137,6 +162,11 @@ model::PlantParams parse_plant(std::string_view text, const std::string& name) {
       if (const toml::node* node = table.get(key.name)) {
         params.*(key.field) = number(name, section + "." + key.name, *node);
       }
+    }
+    if (section == "gyro") {
+      known.emplace_back("zero_bias_c");
+      known.emplace_back("zero_bias_mv");
+      read_zero_bias(name, table, params);
     }
     if (section == "stage") {
       known.emplace_back("dac_bits");
@@ -228,6 +258,15 @@ std::string format_plant(const model::PlantParams& params) {
       if (section == "stage") out += "dac_bits = " + std::to_string(params.dac_bits) + "\n";
     }
     out += std::string(key.name) + " = " + num(params.*(key.field)) + "\n";
+    if (key.field == &PlantParams::zero_rate_offset_mv && !(params.zero_bias == model::ZeroBiasCurve())) {
+      auto list = [&](const std::vector<double>& v) {
+        std::string text = "[";
+        for (std::size_t i = 0; i < v.size(); ++i) text += (i ? ", " : "") + num(v[i]);
+        return text + "]";
+      };
+      out += "zero_bias_c = " + list(params.zero_bias.temp_c()) + "\n";
+      out += "zero_bias_mv = " + list(params.zero_bias.gyro_mv()) + "\n";
+    }
   }
   const auto& e = params.effects;
   if (e.thermal_lag) out += "\n[effects.thermal_lag]\ntau_s = " + num(e.thermal_lag->tau_s) + "\n";

@@ -346,15 +346,29 @@ std::string render_svg(const Figure& f) {
       const std::string color = s.color.empty() ? kPalette[colour++ % kPalette.size()] : s.color;
       const Range& r = s.right_axis ? yr : yl;
       const Scale ys = s.right_axis ? p.y2.scale : p.y.scale;
-      const std::string d = series_path(s, f.x.scale, ys, px, [&](double y) { return py(r, y); });
-      o << "<path class=\"series\" clip-path=\"url(#" << clip << ")\" fill=\"none\" stroke=\"" << esc(color)
-        << "\" stroke-width=\"" << num(s.width_px) << "\" stroke-linejoin=\"round\"" << (s.dashed ? " stroke-dasharray=\"6 4\"" : "")
-        << " d=\"" << d << "\"/>\n";
+      if (s.markers) {
+        o << "<g class=\"series\" clip-path=\"url(#" << clip << ")\" fill=\"" << esc(color) << "\">";
+        for (std::size_t i = 0; i < s.x.size(); ++i) {
+          if (!plottable(s.x[i], f.x.scale) || !plottable(s.y[i], ys)) continue;
+          o << "<circle cx=\"" << num(px(s.x[i])) << "\" cy=\"" << num(py(r, s.y[i])) << "\" r=\"2.5\"/>";
+        }
+        o << "</g>\n";
+      } else {
+        const std::string d = series_path(s, f.x.scale, ys, px, [&](double y) { return py(r, y); });
+        o << "<path class=\"series\" clip-path=\"url(#" << clip << ")\" fill=\"none\" stroke=\"" << esc(color)
+          << "\" stroke-width=\"" << num(s.width_px) << "\" stroke-linejoin=\"round\""
+          << (s.dashed ? " stroke-dasharray=\"6 4\"" : "") << " d=\"" << d << "\"/>\n";
+      }
       if (s.label.empty()) continue;
-      o << "<line x1=\"" << num(legend_x) << "\" y1=\"" << num(legend_y - 4) << "\" x2=\"" << num(legend_x + 22)
-        << "\" y2=\"" << num(legend_y - 4) << "\" stroke=\"" << esc(color) << "\" stroke-width=\"2\""
-        << (s.dashed ? " stroke-dasharray=\"6 4\"" : "") << "/>\n"
-        << "<text class=\"legend\" x=\"" << num(legend_x + 28) << "\" y=\"" << num(legend_y) << "\" font-size=\"11\">"
+      if (s.markers) {
+        o << "<circle cx=\"" << num(legend_x + 11) << "\" cy=\"" << num(legend_y - 4) << "\" r=\"2.5\" fill=\""
+          << esc(color) << "\"/>\n";
+      } else {
+        o << "<line x1=\"" << num(legend_x) << "\" y1=\"" << num(legend_y - 4) << "\" x2=\"" << num(legend_x + 22)
+          << "\" y2=\"" << num(legend_y - 4) << "\" stroke=\"" << esc(color) << "\" stroke-width=\"2\""
+          << (s.dashed ? " stroke-dasharray=\"6 4\"" : "") << "/>\n";
+      }
+      o << "<text class=\"legend\" x=\"" << num(legend_x + 28) << "\" y=\"" << num(legend_y) << "\" font-size=\"11\">"
         << esc(s.label) << (s.right_axis ? " (right axis)" : "") << "</text>\n";
       legend_y += 15;
     }

@@ -241,6 +241,38 @@ TEST_CASE("the Table 2 curve passes through every measured point and is continuo
   CHECK(gyrotc::model::table1_drive_q(20.0) == Approx(9886.0));
 }
 
+TEST_CASE("a zero-bias curve is the natural cubic spline through its points, on an uneven grid too") {
+  using gyrotc::model::ZeroBiasCurve;
+  // By hand: through (0,0), (1,1), (3,0), M1 = 6 (-1/2 - 1) / (2 (1 + 2)) = -1.5,
+  // S(0.5) = M1 0.5^3 / 6 + (1 - M1 / 6) 0.5 = 0.59375.
+  const ZeroBiasCurve c({0.0, 1.0, 3.0}, {0.0, 1.0, 0.0});
+  CHECK(c.bias_mv(0.5) == Approx(0.59375).margin(1e-12));
+  CHECK(c.bias_mv(1.0) == Approx(1.0).margin(1e-12));
+  CHECK(c.bias_mv(3.0) == Approx(0.0).margin(1e-12));
+  // Outside its points it runs on along the end tangent: a straight line.
+  CHECK(c.bias_mv(5.0) - c.bias_mv(4.0) == Approx(c.bias_mv(4.0) - c.bias_mv(3.0)).margin(1e-9));
+  // Two points are a straight line.
+  CHECK(ZeroBiasCurve({10.0, 20.0}, {1.0, 3.0}).bias_mv(12.5) == Approx(1.5).margin(1e-12));
+}
+
+TEST_CASE("a zero-bias curve refuses lists that are not a curve, naming what is wrong") {
+  using gyrotc::model::ZeroBiasCurve;
+  CHECK_THROWS_WITH(ZeroBiasCurve({0.0, 1.0}, {0.0}), Catch::Contains("2 temperatures but 1 outputs"));
+  CHECK_THROWS_WITH(ZeroBiasCurve({0.0}, {0.0}), Catch::Contains("at least 2 points"));
+  CHECK_THROWS_WITH(ZeroBiasCurve({0.0, 2.0, 1.0}, {0.0, 1.0, 2.0}), Catch::Contains("temperature 3 does not rise"));
+  CHECK_THROWS_WITH(ZeroBiasCurve({0.0, 1.0}, {0.0, std::nan("")}), Catch::Contains("point 2 is not a finite"));
+}
+
+TEST_CASE("the plant's gyro follows the plant's zero-bias curve at the die temperature") {
+  PlantParams p = coarse();
+  p.arw_deg_per_sqrt_h = 0.0;
+  p.bias_instability_dps = 0.0;
+  p.zero_rate_offset_mv = 2.0;
+  p.zero_bias = gyrotc::model::ZeroBiasCurve({-40.0, 16.0, 80.0}, {40.0, 60.0, 30.0});
+  Plant plant(p, 1);
+  CHECK(plant.gyro_bias_mv() == Approx(62.0).margin(1e-9));  // 16 C, the initial temperature
+}
+
 TEST_CASE("named effects switched on in PlantParams act on the plant") {
   PlantParams base = coarse();
   base.internal_power_w = 0.0;

@@ -228,3 +228,26 @@ TEST_CASE("unknown methods and option values are rejected naming the option") {
   CHECK_THAT(error_of({"--data", kTable2, "--method", "smooth", "--criterion", "aic"}), Catch::Contains("--criterion"));
   CHECK_THAT(error_of({"--data", kTable2, "--method", "smooth", "--dof", "40"}), Catch::Contains("dof"));
 }
+
+TEST_CASE("fit --plot writes the calibration report: every point, the model, and each point's held-out residual") {
+  const fs::path svg = fs::temp_directory_path() / (std::to_string(::getpid()) + "_fit.svg");
+  const std::string out = run_fit({"--data", kTable2, "--method", "poly", "--order", "5", "--plot", svg.string()});
+  CHECK_THAT(out, Catch::Contains("wrote " + svg.string()));
+  std::ifstream in(svg);
+  const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  std::size_t circles = 0;
+  for (std::size_t at = text.find("<circle"); at != std::string::npos; at = text.find("<circle", at + 1)) ++circles;
+  CHECK(circles == 25 + 25 + 2);  // the points, their residuals, and a dot in each legend entry
+  CHECK_THAT(text, Catch::Contains("25 points of the table"));
+  CHECK_THAT(text, Catch::Contains("held-out residual (deg/s)"));
+  // A method that chooses nothing: the held-out residual is the plain LOO.
+  const auto j = nlohmann::json::parse(run_fit({"--data", kTable2, "--method", "poly", "--order", "5", "--json"}));
+  char expect[64];
+  std::snprintf(expect, sizeof expect, "nested LOO max %.3f", j["loo_max_abs_dps"].get<double>());
+  CHECK_THAT(text, Catch::Contains(expect));
+  fs::remove(svg);
+}
+
+TEST_CASE("fit --plot is refused with --compare, which fits no one model") {
+  CHECK_THAT(error_of({"--data", kTable2, "--compare", "--plot", "x.svg"}), Catch::Contains("--plot: not with --compare"));
+}

@@ -139,6 +139,36 @@ TEST_CASE("a plant description with an ambient sensitivity reads back what was w
   CHECK(back.effects.ambient_sensitivity->ref_c == 22.5);
 }
 
+TEST_CASE("a plant description's zero-bias curve reads back what was written; Table 2 is not written") {
+  gyrotc::model::PlantParams params;
+  CHECK(gyrotc::app::format_plant(params).find("zero_bias_c") == std::string::npos);
+  params.zero_bias = gyrotc::model::ZeroBiasCurve({-40.0, 0.1, 85.0}, {80.0, 100.0 / 3.0, 90.0});
+  const auto back = gyrotc::app::parse_plant(gyrotc::app::format_plant(params), "p.toml");
+  CHECK(back.zero_bias == params.zero_bias);
+}
+
+TEST_CASE("a plant description's zero-bias curve is refused, naming the file, line and keys, when it is not one") {
+  auto error = [](const std::string& text) {
+    try {
+      gyrotc::app::parse_plant(text, "p.toml");
+    } catch (const InputError& e) {
+      return std::string(e.what());
+    }
+    return std::string("no error");
+  };
+  CHECK(error("[gyro]\nzero_bias_c = [0.0, 10.0]\n") ==
+        "p.toml:2: keys 'gyro.zero_bias_c' and 'gyro.zero_bias_mv' come together (the curve's temperatures and "
+        "outputs)");
+  CHECK(error("[gyro]\nzero_bias_c = [0.0, 10.0, 5.0]\nzero_bias_mv = [1.0, 2.0, 3.0]\n") ==
+        "p.toml:2: keys 'gyro.zero_bias_c', 'gyro.zero_bias_mv': zero-bias curve: temperature 3 does not rise above "
+        "the one before");
+  CHECK(error("[gyro]\nzero_bias_c = 5.0\nzero_bias_mv = [1.0]\n") ==
+        "p.toml:2: key 'gyro.zero_bias_c' must be a list of numbers");
+  CHECK(error("[gyro]\nzero_bias_c = [0.0, \"x\"]\nzero_bias_mv = [1.0, 2.0]\n").find("p.toml:2: key "
+                                                                                    "'gyro.zero_bias_c' must be a "
+                                                                                    "number") == 0);
+}
+
 TEST_CASE("identify --out-plant writes a plant description with the effect found switched on") {
   gyrotc::identify::RecordSpec spec;
   spec.duration_s = 3.0 * 3600.0;

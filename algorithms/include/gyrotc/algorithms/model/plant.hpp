@@ -98,6 +98,9 @@ struct PlantParams {
   // of one type differ by tens of mV, which is why each unit is calibrated
   // (seed Section 4). 0 = the seed's own gyro.
   double zero_rate_offset_mv = 0.0;
+  // The zero-rate output against the die temperature (before the offset
+  // above): the seed's Table 2 unless the plant file gives another.
+  ZeroBiasCurve zero_bias;
   // ADS1251 input-referred noise (datasheet: ~1.5 uV rms at 20 kSPS-class
   // settings; negligible next to the gyro's own noise).
   double adc_noise_uv = 1.5;

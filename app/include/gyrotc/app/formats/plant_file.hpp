@@ -19,7 +19,10 @@ namespace gyrotc::app {
 //                 opa548_thermal_tau_s, opa548_shutdown_c, opa548_restart_c
 //   [sensors]     ds18b20_offset_c, adc_noise_uv
 //   [gyro]        scale_mv_per_dps, arw_deg_per_sqrt_h, bias_instability_dps,
-//                 bias_instability_tau_s, zero_rate_offset_mv
+//                 bias_instability_tau_s, zero_rate_offset_mv,
+//                 zero_bias_c = [...], zero_bias_mv = [...] (the zero-rate output at
+//                 the die temperature, a natural cubic spline through the points;
+//                 both or neither; default: the seed's Table 2)
 //   [integration] max_thermal_step_s, initial_temp_c
 //   [effects.<name>] the named effects (model/effects.hpp), on when present:
 //     thermal_lag {tau_s}, rate_sensitivity {k_mv_per_c_per_s},
@@ -29,7 +32,8 @@ namespace gyrotc::app {
 model::PlantParams load_plant(const std::string& path);
 model::PlantParams parse_plant(std::string_view text, const std::string& name);
 
-// The file's text for params (every key written; numbers read back exactly).
+// The file's text for params (every key written, the zero-bias curve when it
+// is not Table 2; numbers read back exactly).
 std::string format_plant(const model::PlantParams& params);
 // RuntimeFailure when the file cannot be written.
 void save_plant(const model::PlantParams& params, const std::string& path);

@@ -35,6 +35,7 @@ struct Series {
   bool dashed = false;       // reference lines
   bool right_axis = false;   // plotted against the panel's y2 axis
   double width_px = 1.3;     // a wide light line under a thin dark one: data and model
+  bool markers = false;      // a dot at each point and no line: measured points beside a model
 };
 
 // A shaded horizontal band (e.g. a tolerance, +/-0.3 C) or, with
