@@ -1,0 +1,95 @@
+// `gyrotc check-config`: a configuration judged as `run` reads it, with no
+// device opened, every mistake one line naming the file, line and key.
+#include <unistd.h>
+
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <regex>
+#include <string>
+
+#include "gyrotc/app/cli/commands.hpp"
+#include "gyrotc/app/support/errors.hpp"
+#include "gyrotc_catch.hpp"
+#include "run_command.hpp"
+#include "test_paths.hpp"
+
+namespace fs = std::filesystem;
+
+namespace {
+
+std::string check(const std::string& path) {
+  return gyrotc::test::run_command(gyrotc::app::add_check_config_command, "check-config", {path});
+}
+
+std::string error_of(const std::string& path) {
+  try {
+    check(path);
+  } catch (const gyrotc::app::RuntimeFailure& e) {
+    return e.what();
+  }
+  return "no error";
+}
+
+std::string read(const std::string& path) {
+  std::ifstream in(path);
+  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+}
+
+// The board's shipped configuration with every device path made one that
+// does not exist, and its calibration named by absolute path.
+fs::path board_config_without_devices() {
+  std::string text = read(gyrotc::test::config_file("gyrotc-linux.toml"));
+  text = std::regex_replace(text, std::regex("\"/(dev|sys)/"), "\"/nonexistent/$1/");
+  text = std::regex_replace(text, std::regex("\"gpiochip0:"), "\"/nonexistent/gpiochip0:");
+  text = std::regex_replace(text, std::regex("\nfile = \"calibration.toml\""),
+                            "\nfile = \"" + gyrotc::test::config_file("calibration.toml") + "\"");
+  const fs::path p = fs::temp_directory_path() / (std::to_string(::getpid()) + "_check_config.toml");
+  std::ofstream(p) << text;
+  return p;
+}
+
+}  // namespace
+
+TEST_CASE("check-config passes the shipped board configuration without opening a device") {
+  const fs::path p = board_config_without_devices();
+  REQUIRE(read(p.string()).find("/nonexistent/dev/spidev0.0") != std::string::npos);
+  const std::string out = check(p.string());
+  CHECK(out.find(p.string() + ": OK") == 0);
+  CHECK(out.find("hal:         linux") != std::string::npos);
+  CHECK(out.find("calibration: " + gyrotc::test::config_file("calibration.toml")) != std::string::npos);
+  fs::remove(p);
+}
+
+TEST_CASE("check-config refuses an unknown key naming the file, line and key") {
+  std::string text = read(board_config_without_devices().string());
+  text = std::regex_replace(text, std::regex("\n\\[control\\]\n"), "\n[control]\nsetpiont_c = 55.0\n");
+  const fs::path p = fs::temp_directory_path() / (std::to_string(::getpid()) + "_check_config_key.toml");
+  std::ofstream(p) << text;
+  const std::string e = error_of(p.string());
+  INFO(e);
+  CHECK(e.find(p.string() + ":74:") == 0);
+  CHECK(e.find("setpiont_c") != std::string::npos);
+  fs::remove(p);
+}
+
+TEST_CASE("check-config refuses a calibration file that is not there, naming it") {
+  std::string text = read(board_config_without_devices().string());
+  text = std::regex_replace(text, std::regex("\nfile = \"[^\"]*\""), "\nfile = \"/nonexistent/calibration.toml\"");
+  const fs::path p = fs::temp_directory_path() / (std::to_string(::getpid()) + "_check_config_cal.toml");
+  std::ofstream(p) << text;
+  CHECK(error_of(p.string()).find("/nonexistent/calibration.toml") != std::string::npos);
+  fs::remove(p);
+}
+
+TEST_CASE("check-config refuses a control period that cannot run, naming the key") {
+  std::string text = read(board_config_without_devices().string());
+  text = std::regex_replace(text, std::regex("\nperiod_s = 2.0"), "\nperiod_s = -2.0");
+  const fs::path p = fs::temp_directory_path() / (std::to_string(::getpid()) + "_check_config_ctl.toml");
+  std::ofstream(p) << text;
+  const std::string e = error_of(p.string());
+  INFO(e);
+  CHECK(e.find(p.string()) == 0);
+  CHECK(e.find("period_s") != std::string::npos);
+  fs::remove(p);
+}
