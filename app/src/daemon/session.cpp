@@ -281,11 +281,11 @@ void run_session(const SessionOptions& options) {
       const LatencyHistogram::Summary l = runner.latency();
       char text[400];
       std::snprintf(text, sizeof text,
-                    "status: %" PRIu64 " samples, casing %.3f C (setpoint %.2f), TEC %.3f A, flags 0x%x, "
+                    "status: %" PRIu64 " samples, casing %.3f C (setpoint %.2f), TEC %.3f A, flags %s, "
                     "overruns %" PRIu64 ", missed conversions %" PRIu64 ", late reads %" PRIu64
                     ", spurious edges %" PRIu64 ", DRDY timeouts %" PRIu64
                     ", latency us min %.0f avg %.1f p99 %s%.0f max %.0f",
-                    c.samples, st.casing_c, st.setpoint_c, st.tec_a, st.flags, c.overruns, c.missed_conversions,
+                    c.samples, st.casing_c, st.setpoint_c, st.tec_a, flag_names(st.flags).c_str(), c.overruns, c.missed_conversions,
                     c.late_reads, c.spurious_edges, c.adc_timeouts, us(l.min_s), us(l.avg_s), l.p99_over ? ">" : "",
                     us(l.p99_s), us(l.max_s));
       GYROTC_LOG_INFO("%s", text);

@@ -78,6 +78,17 @@ const char* flag_name(std::uint32_t flag) noexcept {
   }
 }
 
+std::string flag_names(std::uint32_t flags) {
+  std::string names;
+  for (unsigned bit = 0; bit < 32; ++bit) {
+    const std::uint32_t flag = 1u << bit;
+    if ((flags & flag) == 0) continue;
+    const std::string name = flag_name(flag);
+    names += (names.empty() ? "" : "+") + (name.empty() ? "bit " + std::to_string(bit) : name);
+  }
+  return names.empty() ? "none" : names;
+}
+
 SampleResult Controller::on_sample(const hal::AdcSample& sample, double now_s) noexcept {
   have_adc_time_ = true;
   last_sample_s_ = now_s;

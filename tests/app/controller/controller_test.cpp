@@ -309,6 +309,13 @@ TEST_CASE("every fault flag has a name for the journal, and a bit that is no fla
   CHECK(std::string(flag_name(kFlagAdcStalled)) == "adc_stalled");
 }
 
+TEST_CASE("a flags word reads as the names of its flags, as the journal prints it") {
+  CHECK(flag_names(0) == "none");
+  CHECK(flag_names(kFlagTecOff | kFlagModelClamped) == "model_clamped+tec_off");
+  CHECK(flag_names(448) == "model_clamped+tec_saturated+tec_off");
+  CHECK(flag_names(kFlagTecOff | (1u << 20)) == "tec_off+bit 20");
+}
+
 TEST_CASE("the runners' sample tick drives the rate DAC and averages only valid samples into the row") {
   struct LastWrite final : gyrotc::hal::RateDac {
     double volts = -1.0;

@@ -2,6 +2,7 @@
 
 #include <atomic>
 #include <cstdint>
+#include <string>
 
 #include "gyrotc/algorithms/control/pid.hpp"
 #include "gyrotc/algorithms/control/tec_law.hpp"
@@ -33,6 +34,10 @@ enum ControllerFlag : std::uint32_t {
 
 // The name of each flag bit (for the journal); "" for a bit that is none.
 const char* flag_name(std::uint32_t flag) noexcept;
+// Every flag set in `flags` by name, joined by '+' ("tec_off+model_clamped"),
+// "none" for none and "bit N" for a bit that is no flag: what a person reads
+// in place of the CSV's number.
+std::string flag_names(std::uint32_t flags);
 
 // Fail-safe limits (issue 6). Defaults are documented choices.
 struct FailSafeLimits {
