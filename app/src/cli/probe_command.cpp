@@ -24,6 +24,9 @@ struct DeviceResult {
   std::string device;
   std::string status;  // "ok", "warning", "error", "skipped"
   std::string detail;
+  // --json: what the detail says, as numbers (units in the names) and words
+  // a script can use; empty when there is nothing to measure.
+  nlohmann::ordered_json values = nlohmann::ordered_json::object();
 };
 
 std::string format(const char* fmt, auto... args) {
@@ -35,7 +38,10 @@ std::string format(const char* fmt, auto... args) {
 DeviceResult probe_sensor(const char* device, hal::TemperatureSensor& sensor) {
   const hal::TemperatureReading reading = sensor.read();
   const std::string name(sensor.name());
-  if (reading.valid) return {device, "ok", format("%.4f C (%s)", reading.temp_c, name.c_str())};
+  if (reading.valid) {
+    return {device, "ok", format("%.4f C (%s)", reading.temp_c, name.c_str()),
+            {{"temp_c", reading.temp_c}, {"sensor", name}}};
+  }
   return {device, "error", name + ": " + std::string(hal::to_string(reading.fault))};
 }
 
@@ -56,7 +62,15 @@ DeviceResult probe_adc(hal::Board& board, double sample_period_s, double timeout
                  sample->code, sample->gyro_mv, sample->clipped ? " (clipped at full scale)" : "", read, burst,
                  static_cast<unsigned long long>(stats.late_reads),
                  static_cast<unsigned long long>(stats.spurious_edges),
-                 static_cast<unsigned long long>(stats.missed_conversions))};
+                 static_cast<unsigned long long>(stats.missed_conversions)),
+          {{"code", sample->code},
+           {"gyro_mv", sample->gyro_mv},
+           {"clipped", sample->clipped},
+           {"reads", read},
+           {"reads_tried", burst},
+           {"late_reads", stats.late_reads},
+           {"spurious_edges", stats.spurious_edges},
+           {"missed_conversions", stats.missed_conversions}}};
 }
 
 // E/S shows a thermal shutdown only while the OPA548 is enabled (disabled,
@@ -83,8 +97,10 @@ DeviceResult probe_opa548(hal::Board& board) {
   if (*status == hal::ThermalStatus::shutdown) {
     return {"opa548", "error", "thermal shutdown: E/S read low while enabled at 0 A; disabled again"};
   }
-  return {"opa548", "ok", format("thermal flag %s (enabled %.0f ms at 0 A to read E/S), disabled again",
-                                 std::string(hal::to_string(*status)).c_str(), kThermalLookS * 1e3)};
+  return {"opa548", "ok",
+          format("thermal flag %s (enabled %.0f ms at 0 A to read E/S), disabled again",
+                 std::string(hal::to_string(*status)).c_str(), kThermalLookS * 1e3),
+          {{"thermal", std::string(hal::to_string(*status))}, {"enabled_for_s", kThermalLookS}}};
 }
 
 // Reads each device of a built board once. The outputs stay safe: the TEC
@@ -117,7 +133,13 @@ toml::table read_toml(const std::string& path) {
 // The calibration the configuration names, as the daemon would load it.
 DeviceResult probe_calibration(const std::string& file) {
   try {
-    return {"calibration", "ok", describe(load_calibration_in_use(file))};
+    const CalibrationInUse c = load_calibration_in_use(file);
+    nlohmann::ordered_json values{{"file", c.file}, {"model", c.model.kind_name()}, {"sha256", c.sha256}};
+    if (c.model.kind() != fit::BiasModel::Kind::paper_reference) {
+      values["range_c"] = {c.model.t_min_c(), c.model.t_max_c()};
+    }
+    values["scale_mv_per_dps"] = c.scale_mv_per_dps;
+    return {"calibration", "ok", describe(c), values};
   } catch (const InputError& e) {
     return {"calibration", "error", e.what()};
   }
@@ -164,9 +186,11 @@ void run_probe(const std::string& config_path, bool json) {
   for (const DeviceResult& r : results) all_ok = all_ok && (r.status == "ok" || r.status == "warning");
   const char* hal_name = config.hal == HalKind::sim ? "sim" : "linux";
   if (json) {
-    nlohmann::json out{{"hal", hal_name}, {"ok", all_ok}, {"devices", nlohmann::json::array()}};
+    nlohmann::ordered_json out{{"hal", hal_name}, {"ok", all_ok}, {"devices", nlohmann::ordered_json::array()}};
     for (const DeviceResult& r : results) {
-      out["devices"].push_back({{"device", r.device}, {"status", r.status}, {"detail", r.detail}});
+      nlohmann::ordered_json d{{"device", r.device}, {"status", r.status}, {"detail", r.detail}};
+      if (!r.values.empty()) d["values"] = r.values;
+      out["devices"].push_back(d);
     }
     std::printf("%s\n", out.dump(2).c_str());
   } else {

@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <sstream>
 #include <string>
 #include <utility>
@@ -140,6 +141,22 @@ TEST_CASE("probe --json on the sim example lists every device ok") {
   CHECK(json["ok"] == true);
   REQUIRE(json["devices"].size() == 7);
   for (const auto& device : json["devices"]) CHECK(device["status"] == "ok");
+}
+
+TEST_CASE("probe --json gives each reading as numbers a script can use, units in the names") {
+  const ProbeRun run = probe({"--config", kSimConfig, "--json"});
+  const auto json = nlohmann::json::parse(run.out);
+  std::map<std::string, nlohmann::json> values;
+  for (const auto& device : json["devices"]) {
+    if (device.contains("values")) values[device["device"]] = device["values"];
+  }
+  CHECK(values["casing_sensor"]["temp_c"].is_number());
+  CHECK(values["casing_sensor"]["temp_c"].get<double>() == Approx(16.0).margin(0.1));  // the sim's start
+  CHECK(values["adc"]["gyro_mv"].is_number());
+  CHECK(values["adc"]["missed_conversions"].is_number_unsigned());
+  CHECK(values["opa548"]["thermal"] == "clear");
+  CHECK(values["calibration"]["range_c"].size() == 2);
+  CHECK(values["calibration"]["sha256"].get<std::string>().size() == 64);
 }
 
 TEST_CASE("probe with hal = linux and no devices prints one error line per device and exits non-zero") {
