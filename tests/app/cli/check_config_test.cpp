@@ -37,14 +37,17 @@ std::string read(const std::string& path) {
 }
 
 // The board's shipped configuration with every device path made one that
-// does not exist, and its calibration named by absolute path.
-fs::path board_config_without_devices() {
+// does not exist, its calibration named by absolute path, and `pattern`
+// replaced by `replacement`, written as `name`.
+fs::path board_config_without_devices(const std::string& name = "check_config.toml", const std::string& pattern = "",
+                                      const std::string& replacement = "") {
   std::string text = read(gyrotc::test::config_file("gyrotc-linux.toml"));
   text = std::regex_replace(text, std::regex("\"/(dev|sys)/"), "\"/nonexistent/$1/");
   text = std::regex_replace(text, std::regex("\"gpiochip0:"), "\"/nonexistent/gpiochip0:");
   text = std::regex_replace(text, std::regex("\nfile = \"calibration.toml\""),
                             "\nfile = \"" + gyrotc::test::config_file("calibration.toml") + "\"");
-  const fs::path p = fs::temp_directory_path() / (std::to_string(::getpid()) + "_check_config.toml");
+  if (!pattern.empty()) text = std::regex_replace(text, std::regex(pattern), replacement);
+  const fs::path p = fs::temp_directory_path() / (std::to_string(::getpid()) + "_" + name);
   std::ofstream(p) << text;
   return p;
 }
@@ -62,10 +65,7 @@ TEST_CASE("check-config passes the shipped board configuration without opening a
 }
 
 TEST_CASE("check-config refuses an unknown key naming the file, line and key") {
-  std::string text = read(board_config_without_devices().string());
-  text = std::regex_replace(text, std::regex("\n\\[control\\]\n"), "\n[control]\nsetpiont_c = 55.0\n");
-  const fs::path p = fs::temp_directory_path() / (std::to_string(::getpid()) + "_check_config_key.toml");
-  std::ofstream(p) << text;
+  const fs::path p = board_config_without_devices("key.toml", "\n\\[control\\]\n", "\n[control]\nsetpiont_c = 55.0\n");
   const std::string e = error_of(p.string());
   INFO(e);
   CHECK(e.find(p.string() + ":74:") == 0);
@@ -74,19 +74,14 @@ TEST_CASE("check-config refuses an unknown key naming the file, line and key") {
 }
 
 TEST_CASE("check-config refuses a calibration file that is not there, naming it") {
-  std::string text = read(board_config_without_devices().string());
-  text = std::regex_replace(text, std::regex("\nfile = \"[^\"]*\""), "\nfile = \"/nonexistent/calibration.toml\"");
-  const fs::path p = fs::temp_directory_path() / (std::to_string(::getpid()) + "_check_config_cal.toml");
-  std::ofstream(p) << text;
+  const fs::path p =
+      board_config_without_devices("cal.toml", "\nfile = \"[^\"]*\"", "\nfile = \"/nonexistent/calibration.toml\"");
   CHECK(error_of(p.string()).find("/nonexistent/calibration.toml") != std::string::npos);
   fs::remove(p);
 }
 
 TEST_CASE("check-config refuses a control period that cannot run, naming the key") {
-  std::string text = read(board_config_without_devices().string());
-  text = std::regex_replace(text, std::regex("\nperiod_s = 2.0"), "\nperiod_s = -2.0");
-  const fs::path p = fs::temp_directory_path() / (std::to_string(::getpid()) + "_check_config_ctl.toml");
-  std::ofstream(p) << text;
+  const fs::path p = board_config_without_devices("ctl.toml", "\nperiod_s = 2.0", "\nperiod_s = -2.0");
   const std::string e = error_of(p.string());
   INFO(e);
   CHECK(e.find(p.string()) == 0);
