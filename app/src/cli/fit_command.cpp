@@ -107,9 +107,14 @@ std::vector<std::string> screen_record(const CsvTable& table, const std::vector<
   std::vector<double> setpoint_c;
   if (table.has("setpoint_c") && table.has("flags")) {
     setpoint_c = table.numbers("setpoint_c");
+    const std::vector<double> flags = table.numbers("flags");
     std::vector<bool> tec_on;
-    for (double f : table.numbers("flags")) {
-      tec_on.push_back((static_cast<unsigned long long>(f) & kFlagTecOff) == 0);
+    for (std::size_t r = 0; r < flags.size(); ++r) {
+      if (!(flags[r] >= 0.0 && flags[r] <= 4294967295.0 && flags[r] == std::floor(flags[r]))) {
+        throw InputError(table.path() + ":" + std::to_string(table.line_of(r)) +
+                         ": flags must be the controller's flag word, a whole number 0 .. 4294967295");
+      }
+      tec_on.push_back((static_cast<std::uint32_t>(flags[r]) & kFlagTecOff) == 0);
     }
     record.setpoint_c = std::span<const double>(setpoint_c);
     record.tec_on = std::move(tec_on);

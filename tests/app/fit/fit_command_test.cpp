@@ -161,6 +161,14 @@ TEST_CASE("fit refuses a record the TEC held at its setpoint, says why and what 
   fs::remove(p);
 }
 
+TEST_CASE("a board record's flags must be a flag word: a bad one is refused naming the line") {
+  std::string csv = board_record(36000, slow_sweep, false);
+  csv += "36000,40,16,90,0,0,55,-3\n";
+  const fs::path p = write_temp("bad_flags.csv", csv);
+  CHECK_THAT(error_of({"--data", p.string()}), Catch::Contains("bad_flags.csv:36002: flags must be"));
+  fs::remove(p);
+}
+
 TEST_CASE("fit fits the same slow sweep the TEC did not hold") {
   const fs::path p = write_temp("open_loop.csv", board_record(36000, slow_sweep, false));
   const auto j = nlohmann::json::parse(run_fit({"--data", p.string(), "--method", "poly", "--order", "2", "--json"}));
