@@ -40,7 +40,8 @@ for w in "${want[@]}"; do
       pkgs+=(build-essential cmake pkg-config file libeigen3-dev libgpiod-dev "$catch2" libcli11-dev
              libtomlplusplus-dev nlohmann-json3-dev libbenchmark-dev
              libfuse3-dev  # the board emulator, gyrotc-emu (docs/EMULATOR.md)
-             systemd) ;;  # systemd: systemd-analyze for tests/deploy
+             systemd  # systemd-analyze for tests/deploy
+             python3-prometheus-client) ;;  # its parser reads the daemon's metrics file in a test
     aarch64 | armhf)
       if [ "$w" = aarch64 ]; then arch=arm64 triple=aarch64-linux-gnu; else arch=armhf triple=arm-linux-gnueabihf; fi
       need_arch+=("$arch")

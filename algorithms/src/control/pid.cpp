@@ -30,13 +30,20 @@ void validate(const PidParams& p) {
 
 IncrementalPid::IncrementalPid(const PidParams& params) : params_(params) {
   validate(params_);
+  retune(params_);
+  reset(0.0);
+}
+
+void IncrementalPid::retune(const PidParams& params) noexcept {
+  params_ = params;
   const double t = params_.period_s;
-  // Seed Eq. 17: A = Kp(1 + T/TI + TD/T), B = Kp(1 + 2TD/T), C = Kp TD/T.
+  // Seed Eq. 17: A = Kp(1 + T/TI + TD/T), B = Kp(1 + 2TD/T), C = Kp TD/T; beta = 0 (Eq. 18) for a_pd.
   a_pid_ = params_.kp * (1.0 + t / params_.ti_s + params_.td_s / t);
-  a_pd_ = params_.kp * (1.0 + params_.td_s / t);  // beta = 0 (Eq. 18)
+  a_pd_ = params_.kp * (1.0 + params_.td_s / t);
   b_ = params_.kp * (1.0 + 2.0 * params_.td_s / t);
   c_ = params_.kp * params_.td_s / t;
-  reset(0.0);
+  // state_ (the unclamped v) is the velocity form's memory: kept as it is.
+  output_ = std::clamp(output_, params_.out_min, params_.out_max);
 }
 
 void IncrementalPid::reset(double output) noexcept {

@@ -20,6 +20,7 @@ void add_gyrotc_commands(CLI::App& cli) {
   add_probe_command(cli);
   add_run_command(cli);
   add_record_command(cli);
+  add_status_command(cli);
   add_safe_off_command(cli);
   add_check_config_command(cli);
 }

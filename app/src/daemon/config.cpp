@@ -106,7 +106,8 @@ DaemonConfig parse_daemon_config(const toml::table& root, const std::string& sou
   c.calibration_file = calibration.string("file", "");
 
   const TomlTable output(toml_section(root, "output", source), "output", source,
-                     {"stream", "path", "baud", "period_s", "record_csv", "status_interval_s", "write_timeout_s"});
+                     {"stream", "path", "baud", "period_s", "record_csv", "status_interval_s", "write_timeout_s",
+                          "status_file", "metrics_file"});
   OutputConfig& o = c.output;
   const std::string stream = output.string("stream", "stdout");
   if (stream == "stdout") {
@@ -129,6 +130,12 @@ DaemonConfig parse_daemon_config(const toml::table& root, const std::string& sou
   o.record_csv = output.string("record_csv", "");
   o.status_interval_s = output.number("status_interval_s", o.status_interval_s, 0.0, 86400.0);
   o.write_timeout_s = output.number("write_timeout_s", o.write_timeout_s, 0.0, 10.0);
+  o.status_file = output.string("status_file", o.status_file);
+  o.metrics_file = output.string("metrics_file", "");
+  if (!o.metrics_file.empty() && !o.metrics_file.ends_with(".prom")) {
+    // node_exporter's textfile collector reads *.prom only.
+    output.fail_at("metrics_file", "must end in .prom (node_exporter's textfile collector reads only those)");
+  }
 
   const TomlTable realtime(toml_section(root, "realtime", source), "realtime", source, {"priority", "cpu", "lock_memory"});
   c.realtime.priority = static_cast<int>(realtime.integer("priority", c.realtime.priority, 1, 99));
@@ -158,6 +165,11 @@ DaemonConfig load_daemon_config(const std::string& path) {
   DaemonConfig c = parse_daemon_config(root, path);
   if (!c.calibration_file.empty() && std::filesystem::path(c.calibration_file).is_relative()) {
     c.calibration_file = (std::filesystem::path(path).parent_path() / c.calibration_file).lexically_normal().string();
+  }
+  for (std::string* file : {&c.output.status_file, &c.output.metrics_file}) {
+    if (!file->empty() && std::filesystem::path(*file).is_relative()) {
+      *file = (std::filesystem::path(path).parent_path() / *file).lexically_normal().string();
+    }
   }
   if (!c.controller_file.empty()) {
     std::filesystem::path file(c.controller_file);

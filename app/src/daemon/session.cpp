@@ -1,5 +1,7 @@
 #include "gyrotc/app/daemon/session.hpp"
 
+#include <unistd.h>
+
 #include <algorithm>
 #include <chrono>
 #include <cinttypes>
@@ -19,7 +21,9 @@
 #include "gyrotc/app/daemon/line_sink.hpp"
 #include "gyrotc/app/support/log.hpp"
 #include "gyrotc/app/runtime/realtime_runner.hpp"
+#include "gyrotc/app/daemon/config_reload.hpp"
 #include "gyrotc/app/daemon/signals.hpp"
+#include "gyrotc/app/daemon/status_publisher.hpp"
 #include "gyrotc/app/daemon/systemd_notify.hpp"
 #include "gyrotc/app/support/errors.hpp"
 #include "gyrotc/app/support/output_path.hpp"
@@ -106,6 +110,28 @@ class SafeOffGuard {
   hal::TecDriver& tec_;
 };
 
+double current_limit_a(const ControllerConfig& c) {
+  return std::max(std::fabs(c.pid.out_min), std::fabs(c.pid.out_max));
+}
+
+// What the status says of this daemon from its start on.
+StatusPublisherOptions status_options(const DaemonConfig& config, bool tune_experiment, const std::string& calibration,
+                                      const std::string& calibration_sha256, double started_unix_s) {
+  StatusPublisherOptions o;
+  o.status_file = config.output.status_file;
+  o.metrics_file = config.output.metrics_file;
+  DaemonStatus& s = o.identity;
+  s.pid = static_cast<int>(::getpid());
+  s.hal = config.board.hal == HalKind::sim ? "sim" : "linux";
+  s.config = config.source;
+  s.mode = tune_experiment ? "experiment" : (config.controller.pid_enabled ? "pid" : "tec_off");
+  s.started_unix_s = started_unix_s;
+  s.tec_limit_a = current_limit_a(config.controller);
+  s.calibration = calibration;
+  s.calibration_sha256 = calibration_sha256;
+  return o;
+}
+
 }  // namespace
 
 void safe_off_board(const DaemonConfig& config) {
@@ -132,6 +158,8 @@ void safe_off_board(const DaemonConfig& config) {
 
 void run_session(const SessionOptions& options) {
   DaemonConfig config = load_daemon_config(options.config_path);
+  // What the daemon started with, for the keys a SIGHUP cannot apply (config_reload.hpp).
+  const toml::table started_with = toml::parse_file(options.config_path);
   if (!options.controller_file.empty()) use_controller_file(config, options.controller_file);
   if (options.pid) config.controller.pid_enabled = *options.pid;
   if (options.tune_experiment && !config.controller.pid_enabled) {
@@ -144,8 +172,10 @@ void run_session(const SessionOptions& options) {
   // the new one (Controller::compensator_in_use): it may be in a sample with
   // the old one when the reload swaps them.
   std::vector<std::unique_ptr<fit::Compensator>> compensators;
+  std::vector<std::unique_ptr<ControllerConfig>> reloads;  // each SIGHUP's controller, alive to the end
   CalibrationInUse calibration = load_calibration_in_use(config.calibration_file);
   const std::string calibration_text = describe(calibration);
+  const std::string calibration_sha256 = calibration.sha256;
   compensators.push_back(make_compensator(std::move(calibration)));
   Controller controller(config.controller, *compensators.back());
   tune::IdentificationExperiment experiment(tune::ExperimentPlan{}.scaled(options.experiment_scale));
@@ -235,6 +265,12 @@ void run_session(const SessionOptions& options) {
 
   using clock = std::chrono::steady_clock;
   const auto started = clock::now();
+  const auto unix_now_s = [] {
+    return std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
+  };
+  StatusPublisher publisher(
+      status_options(config, options.tune_experiment, calibration_text, calibration_sha256, unix_now_s()));
+  auto next_publish = started;
   auto next_status = started + std::chrono::duration_cast<clock::duration>(
                                    std::chrono::duration<double>(config.output.status_interval_s));
   const double watchdog_s = notify.watchdog_interval_s().value_or(0.0);
@@ -249,25 +285,47 @@ void run_session(const SessionOptions& options) {
       break;
     }
     if (event == DaemonSignals::Event::reload) {
-      if (config.calibration_file.empty()) {
-        GYROTC_LOG_NOTICE("SIGHUP: no [calibration] file configured, nothing to reload");
-      } else {
-        try {
-          CalibrationInUse reloaded = load_calibration_in_use(config.calibration_file);
-          const std::string text = describe(reloaded);
-          compensators.push_back(make_compensator(std::move(reloaded)));
-          controller.set_compensator(*compensators.back());
-          GYROTC_LOG_NOTICE("SIGHUP: calibration reloaded from %s", text.c_str());
-        } catch (const std::exception& e) {
-          GYROTC_LOG_ERROR("SIGHUP: calibration not reloaded, the old one stays: %s", e.what());
+      try {
+        ReloadPlan plan = plan_reload(options, started_with);
+        for (const std::string& key : plan.restart_keys) {
+          GYROTC_LOG_WARNING("SIGHUP: %s changed in %s: it takes a restart (systemctl restart gyrotc); the running "
+                             "value stays", key.c_str(), config.source.c_str());
         }
+        const std::string text = describe(plan.calibration);
+        publisher.set_calibration(text, plan.calibration.sha256);
+        compensators.push_back(make_compensator(std::move(plan.calibration)));
+        controller.set_compensator(*compensators.back());
+        GYROTC_LOG_NOTICE("SIGHUP: calibration reloaded from %s", text.c_str());
+        config.output.status_interval_s = plan.config.output.status_interval_s;
+        if (options.tune_experiment) {
+          GYROTC_LOG_NOTICE("SIGHUP: the identification experiment drives the TEC: [control] not applied");
+        } else {
+          // Kept alive: the loop thread reads it at its next PID period (Controller::request_reload).
+          reloads.push_back(std::make_unique<ControllerConfig>(plan.config.controller));
+          const ControllerConfig& c = *reloads.back();
+          controller.request_reload(c);
+          publisher.set_control(c.pid_enabled ? "pid" : "tec_off", current_limit_a(c));
+          GYROTC_LOG_NOTICE("SIGHUP: control reloaded (from the next PID period, bumpless): %s, setpoint %.2f C, "
+                            "Kp %g, TI %g s, TD %g s, period %g s, xi %g C, TEC %g .. %g A",
+                            c.pid_enabled ? "PID" : "TEC off", c.setpoint_c, c.pid.kp, c.pid.ti_s, c.pid.td_s,
+                            c.pid.period_s, c.pid.xi_c, c.pid.out_min, c.pid.out_max);
+        }
+      } catch (const std::exception& e) {
+        GYROTC_LOG_ERROR("SIGHUP: nothing reloaded, the running configuration stays: %s", e.what());
       }
     }
     if (compensators.size() > 1 && controller.compensator_in_use() == compensators.back().get()) {
       compensators.erase(compensators.begin(), compensators.end() - 1);
     }
     const auto now = clock::now();
-    faults.update(runner.status().flags, std::chrono::duration<double>(now - started).count());
+    const double uptime_s = std::chrono::duration<double>(now - started).count();
+    faults.update(runner.status().flags, uptime_s);
+    // Once a second, and at once when the first casing reading arrives (the state is known from then).
+    const bool first_reading = std::isnan(publisher.status().casing_c) && std::isfinite(runner.status().casing_c);
+    if (now >= next_publish || first_reading) {
+      notify.status(publisher.update(runner.status(), runner.counters(), runner.latency(), uptime_s, unix_now_s()));
+      if (now >= next_publish) next_publish += std::chrono::seconds(1);
+    }
     if (watchdog_s > 0.0 && now >= next_watchdog) {
       // Only a loop that is still moving is healthy.
       const std::uint64_t beat = runner.heartbeat();
@@ -289,7 +347,6 @@ void run_session(const SessionOptions& options) {
                     c.late_reads, c.spurious_edges, c.adc_timeouts, us(l.min_s), us(l.avg_s), l.p99_over ? ">" : "",
                     us(l.p99_s), us(l.max_s));
       GYROTC_LOG_INFO("%s", text);
-      notify.status(text);
       next_status += std::chrono::duration_cast<clock::duration>(
           std::chrono::duration<double>(config.output.status_interval_s));
     }
@@ -306,6 +363,7 @@ void run_session(const SessionOptions& options) {
                            : controller.program_finished() ? "experiment finished"
                                                            : "duration reached";
   GYROTC_LOG_NOTICE("%s after %.1f s: TEC at 0 A, OPA548 disabled (safe-off)", stopped_by, elapsed_s);
+  publisher.stopped(stopped_by, c, l, elapsed_s, unix_now_s());
   GYROTC_LOG_NOTICE("summary: %" PRIu64 " samples, %" PRIu64 " PID ticks, %" PRIu64 " readings, overruns %" PRIu64
                     ", missed conversions %" PRIu64 ", late reads %" PRIu64 ", spurious edges %" PRIu64
                     ", DRDY timeouts %" PRIu64 ", rows dropped %" PRIu64
@@ -347,8 +405,7 @@ void run_session(const SessionOptions& options) {
     j["rows_dropped"] = c.rows_dropped;
     j["lines_dropped"] = lines_dropped;
     j["flags"] = controller.flags();
-    j["latency_us"] = {{"count", l.count}, {"min", us(l.min_s)}, {"avg", us(l.avg_s)}, {"p50", us(l.p50_s)},
-                       {"p99", us(l.p99_s)}, {"p99_over", l.p99_over}, {"max", us(l.max_s)}};
+    j["latency_us"] = latency_us_json(l);
     if (instance.sim_board) {
       // What the simulated hardware shows after the safe-off.
       const hal::SimBoard& sim = *instance.sim_board;

@@ -198,7 +198,20 @@ TecCommand Controller::off(double now_s, double resume_a) noexcept {
   return command_;
 }
 
+void Controller::apply_reload(const ControllerConfig& next) noexcept {
+  config_.setpoint_c = next.setpoint_c;
+  config_.pid = next.pid;
+  config_.pid_enabled = next.pid_enabled;
+  config_.feed_forward_a_per_c = next.feed_forward_a_per_c;
+  config_.setpoint_ramp_c_per_s = next.setpoint_ramp_c_per_s;
+  config_.rail = next.rail;
+  pid_.retune(next.pid);
+  resume_a_ = std::clamp(resume_a_, next.pid.out_min, next.pid.out_max);
+  applied_.store(&next, std::memory_order_release);
+}
+
 TecCommand Controller::on_pid_tick(double now_s) noexcept {
+  if (const ControllerConfig* next = pending_.exchange(nullptr, std::memory_order_acq_rel)) apply_reload(*next);
   const auto& l = config_.limits;
   const double period_s = config_.pid.period_s;
 

@@ -139,6 +139,7 @@ void RealtimeRunner::push_row(double now_s) noexcept {
 void RealtimeRunner::publish_status() noexcept {
   const TecCommand& command = controller_.last_command();
   status_.store(LoopStatus{.casing_c = have_casing_ ? controller_.last_casing_c() : kNaN,
+                           .ambient_c = ambient_c_,
                            .setpoint_c = controller_.active_setpoint_c(),
                            .tec_a = command.enable ? command.current_a : 0.0,
                            .flags = controller_.flags()});

@@ -194,3 +194,29 @@ TEST_CASE("limits given for a step bound the output, and the integral stops at t
   out = pid.step(55.0625, 55.0, -0.2, 0.3);
   CHECK(out < 0.3);
 }
+
+TEST_CASE("retuning in a steady hold moves the output only by the new gains' integral step, no kick") {
+  PidParams p = unsaturated_params();
+  IncrementalPid pid(p);
+  for (int k = 0; k < 20; ++k) pid.step(54.8, 55.0);  // a steady error of -0.2 C, in the integral band
+  const double before = pid.output();
+  PidParams doubled = PidParams::from_gains(2 * p.kp, 2 * p.ki(), 2 * p.kd(), p.period_s);
+  doubled.out_min = p.out_min;
+  doubled.out_max = p.out_max;
+  pid.retune(doubled);
+  CHECK(pid.output() == before);
+  // With e(k) = e(k-1) = e(k-2) the velocity form's increment is -KI e: the new KI's.
+  CHECK(pid.step(54.8, 55.0) - before == Approx(2 * p.ki() * 0.2));
+}
+
+TEST_CASE("retuning to narrower limits clamps the output at once") {
+  PidParams p;
+  IncrementalPid pid(p);
+  for (int k = 0; k < 5; ++k) pid.step(20.0, 55.0);  // far below: the output at out_max
+  REQUIRE(pid.output() == p.out_max);
+  PidParams narrow = p;
+  narrow.out_max = 0.5;
+  pid.retune(narrow);
+  CHECK(pid.output() == 0.5);
+  CHECK(pid.step(20.0, 55.0) == 0.5);
+}

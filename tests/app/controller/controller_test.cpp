@@ -536,3 +536,45 @@ TEST_CASE("a TEC programme gets 0 A in a period with only an invalid reading, wh
   CHECK((glitch.flags & kFlagTempInvalid) != 0);
   CHECK(program.calls == calls);  // not asked while the reading is faulty
 }
+
+TEST_CASE("a reload's new gains take over at the next PID period without a step in the current") {
+  Harness h;
+  h.run_for(20.0, 54.8, true, false);  // a steady -0.2 C hold, the integral still within the limits
+  const double before = h.controller.last_command().current_a;
+  ControllerConfig next = h.config;
+  next.pid = gyrotc::control::PidParams::from_gains(0.96, 0.64, 20.0, 2.0);
+  next.pid.out_min = h.config.pid.out_min;
+  next.pid.out_max = h.config.pid.out_max;
+  h.controller.request_reload(next);
+  CHECK(h.controller.reload_applied() == nullptr);  // not before the loop's next period
+  const TecCommand after = h.run_for(2.0, 54.8, true, false);
+  CHECK(h.controller.reload_applied() == &next);
+  CHECK(h.controller.config().pid.kp == 0.96);
+  // One period's integral step of the new KI (0.64 x 0.2 C), not Kp e on top.
+  CHECK(after.current_a - before == Approx(0.128));
+}
+
+TEST_CASE("a reloaded setpoint ramps from the one in use at the configured rate") {
+  ControllerConfig c;
+  c.setpoint_ramp_c_per_s = 0.01;
+  Harness h(c);
+  h.run_for(400.0, 55.0);
+  REQUIRE(h.controller.active_setpoint_c() == Approx(55.0));
+  ControllerConfig next = c;
+  next.setpoint_c = 50.0;
+  h.controller.request_reload(next);
+  h.run_for(100.0, 55.0);
+  CHECK(h.controller.config().setpoint_c == 50.0);
+  CHECK(h.controller.active_setpoint_c() == Approx(54.0).margin(0.03));
+}
+
+TEST_CASE("a reload that turns the PID off turns the TEC off at the next period") {
+  Harness h;
+  REQUIRE(h.run_for(20.0, 40.0).enable);
+  ControllerConfig next = h.config;
+  next.pid_enabled = false;
+  h.controller.request_reload(next);
+  const TecCommand cmd = h.run_for(2.0, 40.0);
+  CHECK_FALSE(cmd.enable);
+  CHECK(cmd.current_a == 0.0);
+}

@@ -32,8 +32,22 @@ TEST_CASE("both example configurations in deploy/config load as daemon configura
     CHECK(c.realtime.priority == 80);
     CHECK_FALSE(c.realtime.cpu.has_value());
     CHECK(c.controller.limits.over_temp_c == 80.0);
-    CHECK(c.output.stream == gyrotc::app::StreamKind::stdout_stream);
+    CHECK(c.controller.pid.out_max == 1.0);  // the documented stage's limit
   }
+}
+
+TEST_CASE("the installed board configuration keeps the journal quiet: no line stream, no periodic status") {
+  const DaemonConfig c = gyrotc::app::load_daemon_config(gyrotc::test::config_file("gyrotc-linux.toml"));
+  CHECK(c.output.stream == gyrotc::app::StreamKind::none);
+  CHECK(c.output.status_interval_s == 0.0);
+  CHECK(c.output.status_file == "/run/gyrotc/status.json");
+}
+
+TEST_CASE("daemon config: the status and metrics files are taken relative to the configuration's folder") {
+  const DaemonConfig c = parse("hal = \"sim\"\n[output]\nstatus_file = \"s.json\"\nmetrics_file = \"m.prom\"\n");
+  CHECK(c.output.status_file == "s.json");  // parse() alone: load_daemon_config resolves them
+  CHECK_THAT(error_of("hal = \"sim\"\n[output]\nmetrics_file = \"m.txt\"\n"),
+             Catch::Contains("output.metrics_file: must end in .prom"));
 }
 
 TEST_CASE("daemon config: the [control] keys reach the controller configuration") {

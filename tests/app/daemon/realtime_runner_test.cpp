@@ -233,10 +233,37 @@ TEST_CASE("SIGHUP reloads the calibration file, an invalid one is rejected, logg
   CHECK(wait_for_text(err, "calibration reloaded from " + calibration));
   std::ofstream(calibration) << "format = \"not-a-calibration\"\n";
   kill(pid, SIGHUP);
-  CHECK(wait_for_text(err, "calibration not reloaded, the old one stays"));
+  CHECK(wait_for_text(err, "SIGHUP: nothing reloaded, the running configuration stays: " + calibration));
   kill(pid, SIGTERM);
   CHECK(exit_status(pid) == 0);
   CHECK(read_text(err).find("SIGTERM") != std::string::npos);
+}
+
+TEST_CASE("SIGHUP applies a new setpoint and gains, and names a changed key that takes a restart") {
+  const std::string dir = gyrotc::test::scratch_dir();
+  const std::string config = dir + "/daemon_sighup_control.toml";
+  const std::string err = dir + "/daemon_sighup_control.err";
+  const auto write_config = [&](double setpoint_c, int seed) {
+    std::string text = read_text(kSimConfig);
+    const auto set = [&text](const std::string& from, const std::string& to) {
+      text.replace(text.find(from), from.size(), to);
+    };
+    set("file = \"calibration.toml\"", "file = \"" + gyrotc::test::config_file("calibration.toml") + "\"");
+    set("stream = \"stdout\"", "stream = \"none\"");
+    set("setpoint_c = 55.0", "setpoint_c = " + std::to_string(setpoint_c));
+    set("seed = 1 ", "seed = " + std::to_string(seed) + " ");
+    std::ofstream(config) << text;
+  };
+  write_config(55.0, 1);
+  const pid_t pid = spawn_gyrotc({"run", "--config", config, "--allow-non-rt", "--duration", "60"}, err);
+  REQUIRE(pid > 0);
+  REQUIRE(wait_for_text(err, "running on"));
+  write_config(50.0, 7);
+  kill(pid, SIGHUP);
+  CHECK(wait_for_text(err, "SIGHUP: control reloaded (from the next PID period, bumpless): PID, setpoint 50.00 C"));
+  CHECK(wait_for_text(err, "SIGHUP: sim.seed changed in " + config + ": it takes a restart"));
+  kill(pid, SIGTERM);
+  CHECK(exit_status(pid) == 0);
 }
 
 TEST_CASE("gyrotc safe-off on the simulated board exits 0, a bad configuration exits 2 naming the key") {

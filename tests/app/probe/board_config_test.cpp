@@ -44,7 +44,7 @@ TEST_CASE("the sim example configuration parses into the documented settings") {
   CHECK(c.devices.adc_drdy.line == "25");
   CHECK(c.devices.adc.fclk_hz == 384000.0);
   CHECK(c.devices.tec_dac.vref_v == 5.0);
-  CHECK(c.devices.tec.current_limit_a == 1.5);
+  CHECK(c.devices.tec.current_limit_a == 1.0);
   REQUIRE(c.devices.opa548_es_sense.has_value());
   CHECK(c.devices.opa548_es_sense->line == "23");
   CHECK(c.devices.casing_sensor.id == "28-00000000ca51");

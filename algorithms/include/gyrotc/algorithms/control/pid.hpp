@@ -78,6 +78,13 @@ class IncrementalPid {
   // Clears the error history; the integral part restarts at `output` (clamped
   // to the output limits).
   void reset(double output = 0.0) noexcept;
+  // New gains, period, band and limits from the next step on, bumplessly: the
+  // output and the error history carry over, so the velocity form's next
+  // increment is the new gains' answer to the error's change (no proportional
+  // or derivative kick from the change itself). A setpoint changed at the
+  // same time is a step like any other (ramp it to avoid the kick). `params`
+  // must be valid (validate()).
+  void retune(const PidParams& params) noexcept;
 
   double output() const noexcept { return output_; }
   // True when the last step's unclamped output lay outside the limits.

@@ -21,5 +21,6 @@ void add_run_command(CLI::App& app);
 void add_record_command(CLI::App& app);
 void add_safe_off_command(CLI::App& app);
 void add_check_config_command(CLI::App& app);
+void add_status_command(CLI::App& app);
 
 }  // namespace gyrotc::app

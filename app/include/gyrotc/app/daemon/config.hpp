@@ -19,7 +19,8 @@
 //                  and stuck drive, which [control] then must not give)
 //   [calibration]  file ("" = the seed's reference model)
 //   [output]       stream ("stdout" | "file" | "serial" | "none"), path, baud,
-//                  period_s, record_csv, status_interval_s, write_timeout_s
+//                  period_s, record_csv, status_interval_s, write_timeout_s,
+//                  status_file, metrics_file (relative: to this file's folder)
 //   [realtime]     priority, cpu (-1 = any), lock_memory
 //   [failsafe]     the FailSafeLimits fields
 //
@@ -37,6 +38,8 @@ struct OutputConfig {
   std::string record_csv;       // "" = no CSV recording
   double status_interval_s = 10.0;
   double write_timeout_s = 0.05;  // a stalled reader makes lines drop after this
+  std::string status_file = "/run/gyrotc/status.json";  // `gyrotc status` reads it; "" = none
+  std::string metrics_file;     // Prometheus text file (node_exporter textfile collector); "" = none
 };
 
 struct DaemonConfig {

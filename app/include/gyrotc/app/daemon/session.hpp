@@ -25,7 +25,7 @@ struct SessionOptions {
 };
 
 // Runs the real-time runner on the configured board until the duration ends,
-// the identification experiment ends, or SIGINT/SIGTERM (SIGHUP reloads the calibration file), then puts the
+// the identification experiment ends, or SIGINT/SIGTERM (SIGHUP reloads what config_reload.hpp says), then puts the
 // board in the safe state, prints the summary and returns (exit 0). Throws
 // InputError / RuntimeFailure, the board safe-off done.
 void run_session(const SessionOptions& options);

@@ -149,6 +149,16 @@ class Controller {
   // sample thread holds no older one: those may be freed (any thread).
   const fit::Compensator* compensator_in_use() const noexcept { return in_use_.load(std::memory_order_acquire); }
 
+  // Configuration reload (SIGHUP): from the next PID period on, the setpoint,
+  // the PID's gains, period, band and limits, pid on/off, feed-forward, ramp
+  // and rail of `next`, bumplessly (IncrementalPid::retune; a new setpoint
+  // ramps from the one in use when setpoint_ramp_c_per_s > 0). The fail-safe
+  // limits and the rate output stay. `next` is not copied here: it must stay
+  // alive until reload_applied() returns it. Any thread.
+  void request_reload(const ControllerConfig& next) noexcept { pending_.store(&next, std::memory_order_release); }
+  // The reload last applied (nullptr before any). Any thread.
+  const ControllerConfig* reload_applied() const noexcept { return applied_.load(std::memory_order_acquire); }
+
   std::uint32_t flags() const noexcept { return flags_; }
   // The setpoint in use (ramping with setpoint_ramp_c_per_s).
   double active_setpoint_c() const noexcept { return active_setpoint_c_; }
@@ -168,10 +178,13 @@ class Controller {
   control::CurrentRange applied_range() const noexcept;
   double ambient_reading() const noexcept;  // NaN without one
   TecCommand program_tick(double now_s) noexcept;
+  void apply_reload(const ControllerConfig& next) noexcept;
 
   ControllerConfig config_;
   std::atomic<const fit::Compensator*> compensator_;
   std::atomic<const fit::Compensator*> in_use_;
+  std::atomic<const ControllerConfig*> pending_{nullptr};
+  std::atomic<const ControllerConfig*> applied_{nullptr};
   control::IncrementalPid pid_;
   std::uint32_t flags_ = kFlagTecOff;
 

@@ -71,6 +71,7 @@ struct LoopCounters {
 // (read on any thread through a Seqlock: the loop thread owns the controller).
 struct LoopStatus {
   double casing_c = 0.0;     // last casing reading accepted (NaN before the first)
+  double ambient_c = 0.0;    // last ambient reading (NaN without an ambient sensor or before the first)
   double setpoint_c = 0.0;   // active setpoint
   double tec_a = 0.0;        // commanded TEC current (0 when off)
   std::uint32_t flags = 0;   // controller flags
