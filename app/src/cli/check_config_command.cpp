@@ -42,8 +42,10 @@ void check_config(const std::string& path) {
               c.setpoint_c, c.pid.period_s, c.pid.out_min, c.pid.out_max,
               config.controller_file.empty() ? "" : (", controller file " + config.controller_file).c_str());
   std::printf("  calibration: %s\n", describe(calibration).c_str());
-  std::printf("  output:      stream %s, record %s\n", stream_name(config.output.stream),
-              config.output.record_csv.empty() ? "off" : config.output.record_csv.c_str());
+  const OutputConfig& o = config.output;
+  std::printf("  output:      stream %s, record %s, status %s, metrics %s\n", stream_name(o.stream),
+              o.record_csv.empty() ? "off" : o.record_csv.c_str(), o.status_file.empty() ? "off" : o.status_file.c_str(),
+              o.metrics_file.empty() ? "off" : o.metrics_file.c_str());
 }
 
 }  // namespace

@@ -106,8 +106,8 @@ DaemonConfig parse_daemon_config(const toml::table& root, const std::string& sou
   c.calibration_file = calibration.string("file", "");
 
   const TomlTable output(toml_section(root, "output", source), "output", source,
-                     {"stream", "path", "baud", "period_s", "record_csv", "status_interval_s", "write_timeout_s",
-                          "status_file", "metrics_file"});
+                     {"stream", "path", "baud", "period_s", "record_csv", "record_max_mb", "status_interval_s",
+                          "write_timeout_s", "status_file", "metrics_file"});
   OutputConfig& o = c.output;
   const std::string stream = output.string("stream", "stdout");
   if (stream == "stdout") {
@@ -128,6 +128,7 @@ DaemonConfig parse_daemon_config(const toml::table& root, const std::string& sou
   o.baud = static_cast<int>(output.integer("baud", o.baud, 1200, 921600));
   o.period_s = output.number("period_s", o.period_s, 0.001, 3600.0);
   o.record_csv = output.string("record_csv", "");
+  o.record_max_mb = output.number("record_max_mb", o.record_max_mb, 0.0, 1e6);
   o.status_interval_s = output.number("status_interval_s", o.status_interval_s, 0.0, 86400.0);
   o.write_timeout_s = output.number("write_timeout_s", o.write_timeout_s, 0.0, 10.0);
   o.status_file = output.string("status_file", o.status_file);

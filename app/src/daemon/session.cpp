@@ -7,6 +7,8 @@
 #include <cinttypes>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
+#include <filesystem>
 #include <fstream>
 #include <memory>
 #include <utility>
@@ -228,14 +230,38 @@ void run_session(const SessionOptions& options) {
       stream->flush();
     });
   }
+  // The daemon's own record (not `record --out`, a calibration run kept whole) rotates.
+  const auto rotate_bytes =
+      static_cast<std::uint64_t>(options.record_csv.empty() ? config.output.record_max_mb * 1e6 : 0.0);
+  std::uint64_t rotated_dropped = 0;
   if (record) {
-    runner.add_row_sink([&record, header = true](const OutputRow& row) mutable {
+    runner.add_row_sink([&record, &rotated_dropped, &config, rotate_bytes, header = true,
+                         bytes = std::uint64_t{0}](const OutputRow& row) mutable {
       // A calibration needs a casing temperature and a gyro mean on every row.
       if (!row.have_casing || row.samples == 0) return;
-      if (std::exchange(header, false)) record->write_line(kRecordCsvHeader);
       char line[256];
       format_row(row, line, sizeof line);
+      if (rotate_bytes > 0 && bytes + std::strlen(line) + 1 > rotate_bytes) {
+        try {
+          record->flush();
+          rotated_dropped += record->lines_dropped();
+          const std::string& path = config.output.record_csv;
+          std::filesystem::rename(path, path + ".1");
+          record = LineSink::open_file(path, false, std::max(config.output.write_timeout_s, 1.0));
+          GYROTC_LOG_NOTICE("output.record_csv: %s reached record_max_mb, moved to %s.1", path.c_str(), path.c_str());
+          header = true;
+          bytes = 0;
+        } catch (const std::exception& e) {
+          GYROTC_LOG_ERROR("output.record_csv: rotation failed, recording goes on where it was: %s", e.what());
+          bytes = 0;
+        }
+      }
+      if (std::exchange(header, false)) {
+        record->write_line(kRecordCsvHeader);
+        bytes += std::strlen(kRecordCsvHeader) + 1;
+      }
       record->write_line(line);
+      bytes += std::strlen(line) + 1;
       record->flush();
     });
   }
@@ -378,7 +404,7 @@ void run_session(const SessionOptions& options) {
                       sim.adc_chip().counters().reads, sim.adc_chip().counters().corrupted_reads,
                       sim.accepted_samples(), sim.accepted_corrupted_samples());
   }
-  std::uint64_t lines_dropped = 0;
+  std::uint64_t lines_dropped = rotated_dropped;
   for (const LineSink* sink : {stream.get(), record.get()}) {
     if (sink == nullptr) continue;
     lines_dropped += sink->lines_dropped();

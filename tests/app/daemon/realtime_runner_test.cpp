@@ -8,6 +8,7 @@
 #include <cstdio>
 #include <iterator>
 #include <cmath>
+#include <filesystem>
 #include <fstream>
 #include <string>
 #include <string_view>
@@ -264,6 +265,35 @@ TEST_CASE("SIGHUP applies a new setpoint and gains, and names a changed key that
   CHECK(wait_for_text(err, "SIGHUP: sim.seed changed in " + config + ": it takes a restart"));
   kill(pid, SIGTERM);
   CHECK(exit_status(pid) == 0);
+}
+
+TEST_CASE("the daemon's own CSV record moves to .1 past record_max_mb and starts again with its header") {
+  const std::string dir = gyrotc::test::scratch_dir();
+  const std::string config = dir + "/daemon_rotate.toml";
+  const std::string csv = dir + "/daemon_rotate.csv";
+  std::filesystem::remove(csv + ".1");
+  {
+    std::string text = read_text(kSimConfig);
+    const auto set = [&text](const std::string& from, const std::string& to) {
+      text.replace(text.find(from), from.size(), to);
+    };
+    set("file = \"calibration.toml\"", "file = \"" + gyrotc::test::config_file("calibration.toml") + "\"");
+    set("stream = \"stdout\"", "stream = \"none\"");
+    set("period_s = 1.0                 # one line", "period_s = 0.2                 # one line");
+    set("record_csv = \"\"", "record_csv = \"" + csv + "\"");
+    set("record_max_mb = 100.0", "record_max_mb = 0.0005");  // about 7 rows
+    std::ofstream(config) << text;
+  }
+  CHECK(exit_status(spawn_gyrotc({"run", "--config", config, "--allow-non-rt", "--duration", "8"},
+                                 dir + "/daemon_rotate.err")) == 0);
+  const std::string older = read_text(csv + ".1");
+  const std::string current = read_text(csv);
+  CHECK(older.rfind("time_s,", 0) == 0);
+  CHECK(current.rfind("time_s,", 0) == 0);
+  CHECK(older.size() <= 500);
+  CHECK(current.size() <= 500);
+  CHECK(read_text(dir + "/daemon_rotate.err").find("reached record_max_mb, moved to " + csv + ".1") !=
+        std::string::npos);
 }
 
 TEST_CASE("gyrotc safe-off on the simulated board exits 0, a bad configuration exits 2 naming the key") {

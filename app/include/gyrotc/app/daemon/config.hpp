@@ -19,7 +19,7 @@
 //                  and stuck drive, which [control] then must not give)
 //   [calibration]  file ("" = the seed's reference model)
 //   [output]       stream ("stdout" | "file" | "serial" | "none"), path, baud,
-//                  period_s, record_csv, status_interval_s, write_timeout_s,
+//                  period_s, record_csv, record_max_mb, status_interval_s, write_timeout_s,
 //                  status_file, metrics_file (relative: to this file's folder)
 //   [realtime]     priority, cpu (-1 = any), lock_memory
 //   [failsafe]     the FailSafeLimits fields
@@ -36,6 +36,9 @@ struct OutputConfig {
   int baud = 115200;            // serial only
   double period_s = 1.0;        // one line / CSV row per period (means over it)
   std::string record_csv;       // "" = no CSV recording
+  // The configuration's record_csv is moved to <record_csv>.1 (replacing it) and
+  // started again past this size; 0 = no limit. Not for `record --out`.
+  double record_max_mb = 100.0;
   double status_interval_s = 10.0;
   double write_timeout_s = 0.05;  // a stalled reader makes lines drop after this
   std::string status_file = "/run/gyrotc/status.json";  // `gyrotc status` reads it; "" = none
