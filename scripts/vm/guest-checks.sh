@@ -14,7 +14,8 @@
 # service's own checks (start ... seccomp-kill) along the way:
 #   probe; the identification experiment and tune (the unit's controller);
 #   the service started with it: READY, SCHED_FIFO, sandbox, watchdog,
-#   outputs, and the casing held; sensor loss, OPA548 shutdown, DRDY stall;
+#   outputs, and the casing held; a quiet journal, `gyrotc status` as another
+#   user, a new setpoint by reload; sensor loss, OPA548 shutdown, DRDY stall;
 #   stop; a calibration record, fit, reload; the compensation against the
 #   record; kill -9 and SEGV; outputs refused; seccomp with kill.
 # Times in the emulator's event log and in the journal are CLOCK_MONOTONIC.
@@ -22,7 +23,7 @@ set -u
 PLAN=(deb-install sysusers gpio-sim-module udev-gpiochip gpio-chip-lookup gpio-drdy-edge gpio-drdy-timeout
       gpio-drdy-conversions gpio-edge-queue gpio-discard gpio-es-output gpio-consumers safe-off-es
       hil-emulator hil-probe hil-tune start realtime sandbox watchdog outputs hil-settle
-      hil-sensor-loss hil-opa548 hil-adc-stall hil-stop stop hil-calibration reload hil-compensation
+      journal-quiet status reload-control hil-sensor-loss hil-opa548 hil-adc-stall hil-stop stop hil-calibration reload hil-compensation
       hil-crash-safe-off crash-restart output-refused seccomp-kill)
 echo "vm-test: plan ${PLAN[*]}"
 [ "${1:-}" = --plan ] && exit 0
@@ -182,7 +183,8 @@ fi
 # example for an emulated board (gpio-sim chip by label, 10 SPS, an E/S sense
 # line). A CUSE node is not spidev's major, so the unit's DeviceAllow=char-spi
 # does not cover it: a drop-in names the nodes (docs/EMULATOR.md).
-HIL_CHECKS=(hil-emulator hil-probe hil-tune start realtime sandbox watchdog outputs hil-settle hil-sensor-loss
+HIL_CHECKS=(hil-emulator hil-probe hil-tune start realtime sandbox watchdog outputs hil-settle journal-quiet status
+            reload-control hil-sensor-loss
             hil-opa548 hil-adc-stall hil-stop stop hil-calibration reload hil-compensation hil-crash-safe-off
             crash-restart output-refused seccomp-kill)
 modprobe cuse 2>/dev/null
@@ -309,12 +311,13 @@ fi
 
 csv=/var/lib/gyrotc/record.csv
 rows=$(($(wc -l <"$csv" 2>/dev/null || echo 1) - 1))
-stream_rows=$(unit_log "$c_start" | grep -cE '^[0-9]+\.[0-9]{3},')
+status_file=/run/gyrotc/status.json
 if [ -f "$csv" ] && [ "$(stat -c %U:%G "$csv")" = gyrotc:gyrotc ] && head -1 "$csv" | grep -q '^time_s,' &&
-   [ "$rows" -ge $((RUN_S / 3)) ] && [ "$stream_rows" -ge $((RUN_S / 3)) ]; then
-  pass outputs "output.stream stdout -> journal ($stream_rows lines), output.record_csv -> $csv ($(stat -c '%U:%G %a' "$csv"), $rows rows after ${ran_s} s) in StateDirectory=$(prop StateDirectory)"
+   [ "$rows" -ge $((RUN_S / 3)) ] && [ "$(stat -c '%U %a' "$status_file" 2>&1)" = "gyrotc 644" ] &&
+   [ "$(stat -c '%a' /run/gyrotc 2>&1)" = 755 ]; then
+  pass outputs "output.record_csv -> $csv ($(stat -c '%U:%G %a' "$csv"), $rows rows after ${ran_s} s) in StateDirectory=$(prop StateDirectory); output.status_file -> $status_file ($(stat -c '%U %a' "$status_file")) in RuntimeDirectory=$(prop RuntimeDirectory) (mode $(stat -c %a /run/gyrotc))"
 else
-  fail outputs "record $csv: $(stat -c '%U:%G %a %s bytes' "$csv" 2>&1), $rows rows; $stream_rows stream lines in the journal" \
+  fail outputs "record $csv: $(stat -c '%U:%G %a %s bytes' "$csv" 2>&1), $rows rows; status $status_file: $(stat -c '%U %a' "$status_file" 2>&1), /run/gyrotc $(stat -c '%a' /run/gyrotc 2>&1)" \
     "$(head -3 "$csv" 2>&1)"
 fi
 
@@ -341,6 +344,68 @@ else
       "$(tail -8 /tmp/tune-record.log)" "$(tail -25 /tmp/tune.log)"
   fi
 fi
+
+# --- 6b. watching and steering the running service ------------------------------
+# The journal over 60 s of holding: the installed [output] streams nothing and
+# writes no periodic line, so only state changes and faults would show.
+if [ -n "$settle" ]; then
+  c=$(mark)
+  sleep 60
+  quiet=$(unit_log "$c")
+  n_quiet=$(grep -c . <<<"$quiet")
+  n_start=$(unit_log "$c_start" | grep -c .)
+  if [ "$n_quiet" -le 5 ] && [ "$(prop ActiveState)" = active ]; then
+    pass journal-quiet "60 s of holding: $n_quiet journal lines from gyrotc.service ($n_start since its start, $(grep -c '^' "$csv") CSV rows in the record meanwhile)${quiet:+: $(tr '\n' '|' <<<"$quiet" | cut -c1-200)}"
+  else
+    fail journal-quiet "60 s of holding: $n_quiet journal lines from gyrotc.service (a handful expected)" "$(head -20 <<<"$quiet")"
+  fi
+else
+  fail journal-quiet "the casing never held the band (hil-settle): no steady minute to count"
+fi
+
+# `gyrotc status` as a user who is neither root nor gyrotc: the status file
+# under /run/gyrotc is world-readable, the daemon's pid another user's.
+id -u gyrotc-viewer >/dev/null 2>&1 || useradd --system --no-create-home --shell /usr/sbin/nologin gyrotc-viewer
+st_json=$(runuser -u gyrotc-viewer -- gyrotc status --config "$CONF" --json 2>&1)
+st_rc=$?
+st_text=$(runuser -u gyrotc-viewer -- gyrotc status --config "$CONF" 2>&1)
+st_text_rc=$?
+if [ "$st_rc" -eq 0 ] && [ "$st_text_rc" -eq 0 ] && grep -qE '"state": "(holding|warming|cooling)"' <<<"$st_json" &&
+   grep -qE '"casing_c": -?[0-9]' <<<"$st_json" && grep -qE '"tec_a": -?[0-9]' <<<"$st_json" &&
+   grep -qE '"setpoint_c": 55(\.0)?,' <<<"$st_json" && grep -q "\"pid\": $(main_pid)," <<<"$st_json"; then
+  pass status "gyrotc status --json as user gyrotc-viewer, exit 0: $(grep -E '"(state|casing_c|setpoint_c|tec_a|tec_limit_a)"' <<<"$st_json" | tr -d ' \n'); for a person: '$(head -1 <<<"$st_text")'"
+else
+  fail status "gyrotc status as gyrotc-viewer: --json exit $st_rc, text exit $st_text_rc" "$st_json" "$st_text"
+fi
+
+# A new setpoint by reload: the controller file edited, `systemctl reload`,
+# the same process (the TEC loop never stops) holding the new temperature.
+c=$(mark)
+pid=$(main_pid)
+sed -i 's/^setpoint_c *=.*/setpoint_c = 56.0/' /etc/gyrotc/controller.toml
+emu_mark setpoint-56
+systemctl reload gyrotc
+reloaded=""
+wait_for 20 sh -c "journalctl -q -o cat --after-cursor='$c' -u gyrotc.service | grep -q 'SIGHUP: control reloaded.*setpoint 56.00 C'" &&
+  reloaded=$(unit_log "$c" | grep -m1 'SIGHUP: control reloaded')
+new_setpoint=""
+wait_for 10 sh -c "gyrotc status --config $CONF --json | grep -qE '\"setpoint_c\": 56(\\.0)?,'" && new_setpoint=56
+held56=""
+for _ in $(seq 1 36); do
+  held56=$(report settle --after-mark setpoint-56 --setpoint 56 --band 0.3 --hold 30) && break
+  held56=""
+  sleep 5
+done
+restart_warned=$(unit_log "$c" | grep 'takes a restart')
+if [ -n "$reloaded" ] && [ -n "$new_setpoint" ] && [ -n "$held56" ] && [ "$(main_pid)" = "$pid" ] && [ -z "$restart_warned" ]; then
+  pass reload-control "setpoint 55 -> 56 C in /etc/gyrotc/controller.toml, systemctl reload: '$(cut -c1-110 <<<"$reloaded")...'; gyrotc status shows 56; the true casing: $held56; same MainPID $pid"
+else
+  fail reload-control "reload '${reloaded:-no control reloaded line}', status setpoint ${new_setpoint:-not 56}, MainPID $(main_pid) (was $pid); at 56 C: $(report settle --after-mark setpoint-56 --setpoint 56 --band 0.3 --hold 30)" \
+    "$restart_warned" "$(unit_log "$c" | tail -8)"
+fi
+# Back to 55 C for the checks after these (their own marks; no settling needed).
+sed -i 's/^setpoint_c *=.*/setpoint_c = 55.0/' /etc/gyrotc/controller.toml
+systemctl reload gyrotc
 
 # --- 7. faults, injected into the emulated board --------------------------------
 period=2 stale=3 cooldown=20 adc_stall=5
@@ -401,7 +466,7 @@ resumed=""
 wait_for 30 sh -c "gyrotc-emu report safe --log $EMU_LOG --config $CONF --after-mark adc-restored --from-event fault:drdy-stall --resume-within 30 >/dev/null" &&
   resumed=$(report safe --config "$CONF" --after-mark adc-restored --from-event fault:drdy-stall --resume-within 30)
 line=$(fault_line "$c" adc_stalled)
-timeouts=$(unit_log "$c" | grep -o 'DRDY timeouts [0-9]*' | tail -1)
+timeouts="DRDY timeouts $(gyrotc status --config "$CONF" --json | sed -n 's/^ *"adc_timeouts": \([0-9]*\).*/\1/p')"
 if [ "$stalled_ok" -eq 0 ] && [ -n "$resumed" ] && [ -n "$line" ]; then
   pass hil-adc-stall "DRDY held high: journal '$line' (status: $timeouts); $stalled (limit failsafe.adc_stall_s $adc_stall s + a period + 0.5 s); DRDY back: ${resumed##*; }"
 else

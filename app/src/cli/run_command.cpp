@@ -15,7 +15,8 @@ void add_run_command(CLI::App& app) {
       "The controller daemon: compensates every gyro sample in a SCHED_FIFO loop paced by the ADC's DRDY\n"
       "(or, with hal = \"sim\", by the simulated board in real time), runs the PID on the TEC every period,\n"
       "streams and records the data. SIGINT/SIGTERM: TEC 0 A, OPA548 disabled, outputs flushed, exit 0;\n"
-      "SIGHUP: reload the calibration file.");
+      "SIGHUP (systemctl reload): re-read the configuration; the calibration, the controller and the outputs\n"
+      "change without stopping the loop, other changed keys are named as taking a restart.");
   cmd->add_option("-c,--config", options->config_path,
                   "configuration file (TOML): hal, [devices], [tec], [sim], [control], [calibration], [output], "
                   "[realtime], [failsafe]; see deploy/config/")

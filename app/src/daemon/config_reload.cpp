@@ -53,7 +53,15 @@ bool reloadable_key(std::string_view key) {
                                                      "control.setpoint_ramp_c_per_s",
                                                      "control.controller_file",
                                                      "calibration.file",
-                                                     "output.status_interval_s"};
+                                                     "output.status_interval_s",
+                                                     "output.stream",
+                                                     "output.path",
+                                                     "output.baud",
+                                                     "output.record_csv",
+                                                     "output.record_max_mb",
+                                                     "output.write_timeout_s",
+                                                     "output.status_file",
+                                                     "output.metrics_file"};
   return std::find(std::begin(kReloadable), std::end(kReloadable), key) != std::end(kReloadable);
 }
 

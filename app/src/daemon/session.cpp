@@ -20,7 +20,7 @@
 #include "gyrotc/algorithms/tune/experiment.hpp"
 #include "gyrotc/app/formats/calibration_in_use.hpp"
 #include "gyrotc/app/runtime/kernel_rt.hpp"
-#include "gyrotc/app/daemon/line_sink.hpp"
+#include "gyrotc/app/daemon/row_outputs.hpp"
 #include "gyrotc/app/support/log.hpp"
 #include "gyrotc/app/runtime/realtime_runner.hpp"
 #include "gyrotc/app/daemon/config_reload.hpp"
@@ -38,21 +38,6 @@ namespace {
 
 std::unique_ptr<fit::Compensator> make_compensator(CalibrationInUse c) {
   return std::make_unique<fit::Compensator>(std::move(c.model), c.scale_mv_per_dps);
-}
-
-std::unique_ptr<LineSink> open_stream(const OutputConfig& o) {
-  switch (o.stream) {
-    case StreamKind::stdout_stream: return LineSink::open_stdout(o.write_timeout_s);
-    case StreamKind::file: return LineSink::open_file(o.path, true, o.write_timeout_s);
-    case StreamKind::serial: return LineSink::open_serial(o.path, o.baud, o.write_timeout_s);
-    case StreamKind::none: break;
-  }
-  return nullptr;
-}
-
-void format_row(const OutputRow& row, char* out, std::size_t size) {
-  std::snprintf(out, size, "%.3f,%.4f,%.4f,%.5f,%.5f,%.4f,%.3f,%" PRIu32, row.time_s, row.casing_c, row.ambient_c,
-                row.gyro_mv, row.rate_dps, row.tec_a, row.setpoint_c, row.flags);
 }
 
 double us(double s) { return s * 1e6; }
@@ -185,15 +170,17 @@ void run_session(const SessionOptions& options) {
 
   // Output files before any device: a bad path fails without touching the board.
   if (!options.summary_json.empty()) prepare_output_file(options.summary_json, "--summary-json");
-  if (options.stream && config.output.stream == StreamKind::file) prepare_output_file(config.output.path, "output.path");
-  if (!config.output.record_csv.empty()) {
-    prepare_output_file(config.output.record_csv, options.record_csv.empty() ? "output.record_csv" : "--out");
-  }
-  std::unique_ptr<LineSink> stream = options.stream ? open_stream(config.output) : nullptr;
-  std::unique_ptr<LineSink> record;
-  if (!config.output.record_csv.empty()) {
-    record = LineSink::open_file(config.output.record_csv, false, std::max(config.output.write_timeout_s, 1.0));
-  }
+  const auto outputs_config = [&options](const OutputConfig& output) {
+    RowOutputsConfig c;
+    c.output = output;
+    if (!options.record_csv.empty()) c.output.record_csv = options.record_csv;
+    c.stream = options.stream;
+    // The daemon's own record rotates; `record --out`, a calibration run, is kept whole.
+    c.rotate = options.record_csv.empty();
+    c.record_key = options.record_csv.empty() ? "output.record_csv" : "--out";
+    return c;
+  };
+  RowOutputs outputs(outputs_config(config.output));
 
   DaemonSignals signals;  // before any thread starts: every thread inherits the mask
   BoardInstance instance = make_board(config.board, SimTiming::realtime);
@@ -221,50 +208,7 @@ void run_session(const SessionOptions& options) {
   ro.sensor_period_s = config.sensor_period_s;
   RealtimeRunner runner(board, controller, ro);
   // Headers with the first row: nothing is written when the start is refused.
-  if (stream) {
-    runner.add_row_sink([&stream, header = true](const OutputRow& row) mutable {
-      if (std::exchange(header, false)) stream->write_line(kRecordCsvHeader);
-      char line[256];
-      format_row(row, line, sizeof line);
-      stream->write_line(line);
-      stream->flush();
-    });
-  }
-  // The daemon's own record (not `record --out`, a calibration run kept whole) rotates.
-  const auto rotate_bytes =
-      static_cast<std::uint64_t>(options.record_csv.empty() ? config.output.record_max_mb * 1e6 : 0.0);
-  std::uint64_t rotated_dropped = 0;
-  if (record) {
-    runner.add_row_sink([&record, &rotated_dropped, &config, rotate_bytes, header = true,
-                         bytes = std::uint64_t{0}](const OutputRow& row) mutable {
-      // A calibration needs a casing temperature and a gyro mean on every row.
-      if (!row.have_casing || row.samples == 0) return;
-      char line[256];
-      format_row(row, line, sizeof line);
-      if (rotate_bytes > 0 && bytes + std::strlen(line) + 1 > rotate_bytes) {
-        try {
-          record->flush();
-          rotated_dropped += record->lines_dropped();
-          const std::string& path = config.output.record_csv;
-          std::filesystem::rename(path, path + ".1");
-          record = LineSink::open_file(path, false, std::max(config.output.write_timeout_s, 1.0));
-          GYROTC_LOG_NOTICE("output.record_csv: %s reached record_max_mb, moved to %s.1", path.c_str(), path.c_str());
-          header = true;
-          bytes = 0;
-        } catch (const std::exception& e) {
-          GYROTC_LOG_ERROR("output.record_csv: rotation failed, recording goes on where it was: %s", e.what());
-          bytes = 0;
-        }
-      }
-      if (std::exchange(header, false)) {
-        record->write_line(kRecordCsvHeader);
-        bytes += std::strlen(kRecordCsvHeader) + 1;
-      }
-      record->write_line(line);
-      bytes += std::strlen(line) + 1;
-      record->flush();
-    });
-  }
+  runner.add_row_sink([&outputs](const OutputRow& row) { outputs.write(row); });
 
   if (config.board.hal == HalKind::linux_devices) {
     const KernelRealtime kernel = running_kernel_realtime();
@@ -313,6 +257,10 @@ void run_session(const SessionOptions& options) {
     if (event == DaemonSignals::Event::reload) {
       try {
         ReloadPlan plan = plan_reload(options, started_with);
+        // The outputs first: a path that cannot be written refuses the whole reload.
+        const std::string outputs_changed = outputs.reconfigure(outputs_config(plan.config.output));
+        if (!outputs_changed.empty()) GYROTC_LOG_NOTICE("SIGHUP: outputs reloaded: %s", outputs_changed.c_str());
+        publisher.set_files(plan.config.output.status_file, plan.config.output.metrics_file);
         for (const std::string& key : plan.restart_keys) {
           GYROTC_LOG_WARNING("SIGHUP: %s changed in %s: it takes a restart (systemctl restart gyrotc); the running "
                              "value stays", key.c_str(), config.source.c_str());
@@ -380,8 +328,7 @@ void run_session(const SessionOptions& options) {
   const double elapsed_s = std::chrono::duration<double>(clock::now() - started).count();
   notify.stopping();
   runner.stop();  // joins, drains the outputs, TEC 0 A, OPA548 disabled, rate DAC mid-scale
-  if (stream) stream->flush();
-  if (record) record->flush();
+  outputs.flush();
 
   const LoopCounters c = runner.counters();
   const LatencyHistogram::Summary l = runner.latency();
@@ -404,12 +351,8 @@ void run_session(const SessionOptions& options) {
                       sim.adc_chip().counters().reads, sim.adc_chip().counters().corrupted_reads,
                       sim.accepted_samples(), sim.accepted_corrupted_samples());
   }
-  std::uint64_t lines_dropped = rotated_dropped;
-  for (const LineSink* sink : {stream.get(), record.get()}) {
-    if (sink == nullptr) continue;
-    lines_dropped += sink->lines_dropped();
-    if (!sink->first_error().empty()) GYROTC_LOG_WARNING("output %s", sink->first_error().c_str());
-  }
+  const std::uint64_t lines_dropped = outputs.lines_dropped();
+  for (const std::string& error : outputs.first_errors()) GYROTC_LOG_WARNING("output %s", error.c_str());
 
   if (!options.summary_json.empty()) {
     nlohmann::json j;

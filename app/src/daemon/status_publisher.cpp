@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 
 #include "gyrotc/app/runtime/controller.hpp"
 #include "gyrotc/app/support/log.hpp"
@@ -42,6 +43,19 @@ void StatusPublisher::track_faults(std::uint32_t flags, double now_unix_s) {
     if (cleared == status_.faults.end()) break;
     status_.faults.erase(cleared);
   }
+}
+
+void StatusPublisher::set_files(const std::string& status_file, const std::string& metrics_file) {
+  const auto move = [this](std::string& path, const std::string& to, const char* key, bool& warned) {
+    if (path == to) return;
+    // The old file would only go stale, and read as a daemon that died.
+    if (!path.empty()) std::remove(path.c_str());
+    GYROTC_LOG_NOTICE("[output] %s: now %s", key, to.empty() ? "none" : to.c_str());
+    path = to;
+    warned = false;
+  };
+  move(options_.status_file, status_file, "status_file", status_warned_);
+  move(options_.metrics_file, metrics_file, "metrics_file", metrics_warned_);  // written at the next update
 }
 
 void StatusPublisher::set_control(std::string mode, double tec_limit_a) {

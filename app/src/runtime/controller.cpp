@@ -101,7 +101,9 @@ SampleResult Controller::on_sample(const hal::AdcSample& sample, double now_s) n
     const fit::Compensated c = compensator->compensate(0.0, temp_c);
     cached_compensator_ = compensator;
     cached_bias_mv_ = c.bias_mv;
-    cached_clamped_ = c.temp_clamped;
+    // Before the first casing reading there is no temperature to be outside
+    // the calibrated range: the rate is invalid (NaN bias), not clamped.
+    cached_clamped_ = have_casing_ && c.temp_clamped;
     inverse_scale_ = 1.0 / compensator->scale_mv_per_dps();
     bias_cached_ = true;
     // Release: every use of an older compensator happens before a reader sees this one.

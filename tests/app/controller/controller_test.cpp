@@ -355,6 +355,17 @@ TEST_CASE("the runners' sample tick drives the rate DAC and averages only valid 
   CHECK(dac.volts == Approx(2.5));  // mid-scale: zero rate
 }
 
+TEST_CASE("before the first casing reading the rate is invalid, and the model is not flagged clamped") {
+  Harness h;
+  const SampleResult before = h.controller.on_sample(sample(), 0.5);
+  CHECK_FALSE(before.valid);
+  CHECK((before.flags & kFlagModelClamped) == 0);
+  // A reading outside the calibration's range (the seed's -40..80 C) is.
+  h.controller.on_temperature(good(-45.0, 0.6), 0.9);
+  const SampleResult outside = h.controller.on_sample(sample(), 1.0);
+  CHECK((outside.flags & kFlagModelClamped) != 0);
+}
+
 TEST_CASE("the compensator can be swapped between samples") {
   Harness h;
   h.run_for(4.0, 30.0, true, false);

@@ -69,16 +69,18 @@ TEST_CASE("a value of another type is a change, the same value written otherwise
   CHECK(changed("[control]\nkp = 1.0\n", "[control]\nkp   =   1.0   # comment\n").empty());
 }
 
-TEST_CASE("the controller, the calibration and the status interval reload; wiring, HAL and fail-safes do not") {
+TEST_CASE("the controller, the calibration and the outputs reload; wiring, HAL, fail-safes and periods do not") {
   for (const char* key : {"control.setpoint_c", "control.kp", "control.ki", "control.kd", "control.period_s",
                           "control.xi_c", "control.out_min_a", "control.out_max_a", "control.pid",
-                          "control.controller_file", "calibration.file", "output.status_interval_s"}) {
+                          "control.controller_file", "calibration.file", "output.status_interval_s", "output.stream",
+                          "output.path", "output.record_csv", "output.record_max_mb", "output.status_file",
+                          "output.metrics_file"}) {
     INFO(key);
     CHECK(reloadable_key(key));
   }
   for (const char* key :
        {"hal", "devices.adc.spi", "tec.current_limit_a", "sim.seed", "realtime.priority", "failsafe.over_temp_c",
-        "output.stream", "output.status_file", "control.sensor_period_s", "control.rate_out_v_per_dps"}) {
+        "output.period_s", "control.sensor_period_s", "control.rate_out_v_per_dps"}) {
     INFO(key);
     CHECK_FALSE(reloadable_key(key));
   }

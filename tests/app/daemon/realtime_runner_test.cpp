@@ -267,6 +267,47 @@ TEST_CASE("SIGHUP applies a new setpoint and gains, and names a changed key that
   CHECK(exit_status(pid) == 0);
 }
 
+TEST_CASE("SIGHUP moves the outputs: a stream turned on, the record and the status file to new paths") {
+  const std::string dir = gyrotc::test::scratch_dir();
+  const std::string config = dir + "/daemon_sighup_outputs.toml";
+  const std::string err = dir + "/daemon_sighup_outputs.err";
+  const std::string first_csv = dir + "/daemon_sighup_first.csv";
+  const std::string second_csv = dir + "/daemon_sighup_second.csv";
+  const std::string stream = dir + "/daemon_sighup_stream.csv";
+  const std::string first_status = dir + "/daemon_sighup_first.json";
+  const std::string second_status = dir + "/daemon_sighup_second.json";
+  for (const std::string& f : {first_csv, second_csv, stream, first_status, second_status}) std::filesystem::remove(f);
+  const auto write_config = [&](const std::string& stream_line, const std::string& csv, const std::string& status) {
+    std::string text = read_text(kSimConfig);
+    const auto set = [&text](const std::string& from, const std::string& to) {
+      text.replace(text.find(from), from.size(), to);
+    };
+    set("file = \"calibration.toml\"", "file = \"" + gyrotc::test::config_file("calibration.toml") + "\"");
+    set("stream = \"stdout\"", stream_line);
+    set("record_csv = \"\"", "record_csv = \"" + csv + "\"");
+    set("status_file = \"/tmp/gyrotc-sim.status.json\"", "status_file = \"" + status + "\"");
+    std::ofstream(config) << text;
+  };
+  write_config("stream = \"none\"", first_csv, first_status);
+  const pid_t pid = spawn_gyrotc({"run", "--config", config, "--allow-non-rt", "--duration", "60"}, err);
+  REQUIRE(pid > 0);
+  REQUIRE(wait_for_text(err, "running on"));
+  REQUIRE(wait_for_text(first_csv, "\n"));  // a row: the casing was read
+  write_config("stream = \"file\"\npath = \"" + stream + "\"", second_csv, second_status);
+  kill(pid, SIGHUP);
+  CHECK(wait_for_text(err, "SIGHUP: outputs reloaded: stream file " + stream + ", record " + second_csv));
+  CHECK(wait_for_text(second_csv, "\n"));
+  CHECK(wait_for_text(stream, "\n"));
+  CHECK(wait_for_text(second_status, "\"running\": true"));
+  kill(pid, SIGTERM);
+  CHECK(exit_status(pid) == 0);
+  CHECK_FALSE(std::filesystem::exists(first_status));  // it would only go stale
+  CHECK(read_text(first_csv).rfind("time_s,", 0) == 0);
+  CHECK(read_text(second_csv).rfind("time_s,", 0) == 0);
+  CHECK(read_text(stream).rfind("time_s,", 0) == 0);
+  CHECK(read_text(err).find("takes a restart") == std::string::npos);
+}
+
 TEST_CASE("the daemon's own CSV record moves to .1 past record_max_mb and starts again with its header") {
   const std::string dir = gyrotc::test::scratch_dir();
   const std::string config = dir + "/daemon_rotate.toml";

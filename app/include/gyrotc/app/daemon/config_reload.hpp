@@ -19,10 +19,10 @@ namespace gyrotc::app {
 std::vector<std::string> changed_keys(const toml::table& before, const toml::table& after);
 
 // A key SIGHUP applies: [control]'s setpoint, gains, period, band, limits,
-// pid, feed-forward, ramp and controller_file; [calibration] file;
-// [output] status_interval_s. Every other key (the board's wiring, the HAL,
-// [tec], [sim], [realtime], [failsafe], the rest of [output], the sensor
-// period and the rate output) takes a restart.
+// pid, feed-forward, ramp and controller_file; [calibration] file; [output]
+// except period_s (the runner's averaging period). Every other key (the
+// board's wiring, the HAL, [tec], [sim], [realtime], [failsafe], the output
+// period, the sensor period and the rate output) takes a restart.
 bool reloadable_key(std::string_view key);
 
 struct ReloadPlan {

@@ -28,6 +28,9 @@ class StatusPublisher {
   std::string update(const LoopStatus& loop, const LoopCounters& counters, const LatencyHistogram::Summary& latency,
                      double uptime_s, double now_unix_s);
   void set_calibration(std::string description, std::string sha256);
+  // After a reload: the files to write from now on. A file no longer named is
+  // removed (it would read as a daemon that died).
+  void set_files(const std::string& status_file, const std::string& metrics_file);
   // After a reload: "pid" or "tec_off", and the PID's current limit.
   void set_control(std::string mode, double tec_limit_a);
   // The last status: running = false, the TEC at 0 A; the status file stays
