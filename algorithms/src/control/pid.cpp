@@ -4,6 +4,7 @@
 #include <cmath>
 #include <stdexcept>
 #include <string>
+#include <utility>
 
 namespace gyrotc::control {
 
@@ -53,8 +54,14 @@ void IncrementalPid::reset(double output) noexcept {
   e1_ = 0.0;
   e2_ = 0.0;
   started_ = false;
+  resuming_ = false;
   saturated_ = false;
   integrating_ = false;
+}
+
+void IncrementalPid::resume(double output) noexcept {
+  reset(output);
+  resuming_ = true;
 }
 
 double IncrementalPid::step(double measured, double setpoint) noexcept {
@@ -71,16 +78,20 @@ double IncrementalPid::step(double measured, double setpoint, double out_min, do
   const double e = measured - setpoint;  // seed: e(k) = c(k) - r(k)
   if (!started_) {
     // Bumpless: pretend the error has been e for ever, so the derivative is
-    // zero and v(k-1) = -Kp e + I0 (the positional value with integral I0).
+    // zero and v(k-1) = -Kp e + I0 (the positional value with integral I0);
+    // after resume() v(k-1) is the output itself.
     e1_ = e;
     e2_ = e;
-    state_ -= params_.kp * e;
+    if (!std::exchange(resuming_, false)) state_ -= params_.kp * e;
     started_ = true;
   }
   // Output sign is opposite to Eq. 17's u: positive output heats.
   const double v_pd = state_ - (a_pd_ * e - b_ * e1_ + c_ * e2_);
   const double integral_step = -(a_pid_ - a_pd_) * e;  // -Kp T/TI e(k)
-  const bool in_band = std::fabs(e) <= params_.xi_c;  // seed: PID while |e| <= xi
+  // The seed's prototype (Section 4): PD when |e| >= the threshold (0.5 C), PID
+  // below it. Its Eq. 18 text puts |e| = xi in the PID band; the board's
+  // 1/16 C readings hit 0.5 C exactly, and the prototype is what we port.
+  const bool in_band = std::fabs(e) < params_.xi_c;
   const bool winds_up = (v_pd >= out_max && integral_step > 0.0) || (v_pd <= out_min && integral_step < 0.0);
   integrating_ = in_band && !winds_up;
   state_ = integrating_ ? v_pd + integral_step : v_pd;

@@ -657,10 +657,12 @@ Identification identify_series(const SeriesRecord& record, SeriesTarget target,
     problem.readout = [r_th](const std::string&, const std::vector<std::string>&, const SeparableFit& fit,
                              const Eigen::MatrixXd& cov) {
       EffectReadout out;
+      // k: the casing's steady rise per A^2 = r_th * r_ohm / 2 (half the Joule heat reaches the casing).
       const double k = fit.beta(4);
-      out.params = {{"r_ohm", 2.0 * k / r_th, 2.0 * se(cov, 4) / r_th}};
+      if (r_th > 0.0) out.params.push_back({"r_ohm", 2.0 * k / r_th, 2.0 * se(cov, 4) / r_th});
+      out.params.push_back({"rise_k_per_a2", k, se(cov, 4)});
       out.t_ratio = se(cov, 4) > 0 ? std::fabs(k) / se(cov, 4) : 1e9;
-      out.in_bounds = k > 0.0 && 2.0 * k / r_th < 50.0;
+      out.in_bounds = k > 0.0 && (r_th <= 0.0 || 2.0 * k / r_th < 50.0);
       out.amplitude_index = 4;
       return out;
     };

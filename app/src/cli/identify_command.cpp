@@ -5,6 +5,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -71,7 +72,14 @@ id::Identification run_series(const CsvTable& table, const std::string& target, 
   if (!gyro || table.has("tec_a")) record.tec_a = table.numbers("tec_a");
   id::SeriesOptions options;
   const model::PlantParams plant = o.plant.empty() ? model::PlantParams{} : load_plant(o.plant);
-  options.casing_r_th_k_per_w = o.r_th_k_per_w > 0.0 ? o.r_th_k_per_w : 1.0 / plant.casing_ambient_w_per_k();
+  // A board's record cannot tell the casing's thermal resistance from the
+  // TEC's resistance: it comes from the user (--r-th) or their plant, never
+  // from the simulator's defaults.
+  if (o.r_th_k_per_w > 0.0) {
+    options.casing_r_th_k_per_w = o.r_th_k_per_w;
+  } else if (!o.plant.empty()) {
+    options.casing_r_th_k_per_w = 1.0 / plant.casing_ambient_w_per_k();
+  }
   // With a base plant, the die lags the sensed casing as in that plant;
   // without one, the sensor temperature is taken as the gyro's.
   if (!o.plant.empty()) options.base_die_tau_s = plant.die_capacity_j_per_k / plant.casing_die_w_per_k;
@@ -328,7 +336,13 @@ void write_plant(const id::Identification& r, const IdentifyOptions& o) {
     } else if (a.effect == "ambient_sensitivity") {
       params.effects.ambient_sensitivity = model::AmbientSensitivityEffect{value(a, "k_mv_per_c"), value(a, "ref_c")};
     } else if (a.effect == "tec_joule_heating") {
-      params.effects.tec_joule_heating = model::TecJouleHeatingEffect{value(a, "r_ohm")};
+      // Without r_ohm (no --r-th, no --plant) the measured rise per A^2 is kept
+      // through the base plant's own thermal resistance.
+      const bool has_r_ohm = std::any_of(a.params.begin(), a.params.end(),
+                                         [](const id::EffectParam& p) { return p.name == "r_ohm"; });
+      const double r_ohm = has_r_ohm ? value(a, "r_ohm")
+                                     : 2.0 * value(a, "rise_k_per_a2") * params.casing_ambient_w_per_k();
+      params.effects.tec_joule_heating = model::TecJouleHeatingEffect{r_ohm};
     }
   }
   save_plant(params, o.out_plant);
@@ -398,7 +412,8 @@ void add_identify_command(CLI::App& app) {
                   "[effects.<name>] tables) for `gyrotc simulate --plant`");
   cmd->add_option("--r-th", options->r_th_k_per_w,
                   "casing-to-ambient thermal resistance, K/W, for the sensor_c target (converts the fitted "
-                  "Joule term to r_ohm); default: that of the plant (--plant, else the default plant)")
+                  "Joule term, the casing's rise per A^2, to r_ohm); default: that of --plant; without "
+                  "either only rise_k_per_a2 is reported (a record cannot tell the two apart)")
       ->check(positive_number());
   cmd->add_flag("--json", options->json, "print the result as one JSON object");
   cmd->callback([options] { run_identify(*options); });

@@ -7,8 +7,6 @@
 #include <cinttypes>
 #include <cmath>
 #include <cstdio>
-#include <cstring>
-#include <filesystem>
 #include <fstream>
 #include <memory>
 #include <utility>
@@ -29,7 +27,6 @@
 #include "gyrotc/app/daemon/systemd_notify.hpp"
 #include "gyrotc/app/support/errors.hpp"
 #include "gyrotc/app/support/output_path.hpp"
-#include "gyrotc/app/runtime/record_columns.hpp"
 #include "gyrotc/hal/chips/ads1251.hpp"
 #include "gyrotc/hal/linux/gpio_persistence.hpp"
 

@@ -188,10 +188,13 @@ void Controller::record_command(double current_a) noexcept {
   drive_hi_a_ = std::max(drive_hi_a_, current_a);
 }
 
-TecCommand Controller::off(double now_s, double resume_a) noexcept {
+TecCommand Controller::off(double now_s, bool resume, double resume_a) noexcept {
   set_flag(kFlagTecOff, true);
   set_flag(kFlagTecSaturated, false);
-  if (pid_running_) resume_a_ = resume_a;
+  if (pid_running_) {
+    resume_ = resume;
+    resume_a_ = resume ? resume_a : 0.0;
+  }
   pid_running_ = false;
   pid_.reset(0.0);
   record_command(0.0);
@@ -239,17 +242,17 @@ TecCommand Controller::on_pid_tick(double now_s) noexcept {
   const bool new_reading = std::exchange(reading_since_tick_, false);
   // The identification programme gets no glitch hold: a period with a sensor
   // fault is a period at 0 A, and the record shows it.
-  if (program_ != nullptr && (flags_ & kTempFaults) != 0) return off(now_s, 0.0);
+  if (program_ != nullptr && (flags_ & kTempFaults) != 0) return off(now_s, false);
   // A reading that went stale (invalid ones only, since the last valid one)
   // ends a hold: off, to restart where the PID was once readings are good.
-  if ((flags_ & kFlagTempStale) != 0) return off(now_s, pid_.output());
+  if ((flags_ & kFlagTempStale) != 0) return off(now_s, true, pid_.output());
   // A dead ADC: off, to restart where the PID was once samples come again.
-  if ((flags_ & kFlagAdcStalled) != 0) return off(now_s, pid_.output());
+  if ((flags_ & kFlagAdcStalled) != 0) return off(now_s, true, pid_.output());
   const std::uint32_t stop = kFlagTempStuck | kFlagOverTempLatched | kFlagOpa548Thermal;
-  if ((flags_ & stop) != 0 || !config_.pid_enabled || program_finished()) return off(now_s, 0.0);
+  if ((flags_ & stop) != 0 || !config_.pid_enabled || program_finished()) return off(now_s, false);
   if (program_ != nullptr) return program_tick(now_s);
   if ((flags_ & kFlagTempInvalid) != 0) {
-    if (!pid_running_) return off(now_s, resume_a_);  // not recovered yet (M good readings)
+    if (!pid_running_) return off(now_s, resume_, resume_a_);  // not recovered yet (M good readings)
     // Glitch tolerance: no valid reading this period, only invalid ones.
     // Hold the last current (no step on old news) until the reading is stale.
     if (!new_reading) {
@@ -262,9 +265,16 @@ TecCommand Controller::on_pid_tick(double now_s) noexcept {
 
   const double dt_s = pid_running_ ? now_s - last_tick_s_ : 0.0;
   if (!pid_running_) {
-    // Bumpless: the integral restarts where the PID was when a sensor fault
-    // (stale) stopped it, at 0 after any other stop; no derivative kick.
-    pid_.reset(std::exchange(resume_a_, 0.0));
+    // Bumpless: after a sensor fault (stale) or a dead ADC the PID goes on from
+    // the current it stopped at; after any other stop it starts from 0 A with
+    // its proportional part. No derivative kick either way.
+    if (resume_) {
+      pid_.resume(resume_a_);
+    } else {
+      pid_.reset(0.0);
+    }
+    resume_ = false;
+    resume_a_ = 0.0;
     active_setpoint_c_ = config_.setpoint_ramp_c_per_s > 0.0 ? casing_c_ : config_.setpoint_c;
     pid_running_ = true;
   }
@@ -321,7 +331,7 @@ TecCommand Controller::program_tick(double now_s) noexcept {
   const control::TecProgramOutput out = program_->next(in);
   if (out.finished || !std::isfinite(out.current_a)) {
     program_finished_.store(true, std::memory_order_release);
-    return off(now_s, 0.0);
+    return off(now_s, false);
   }
   const double current_a = std::clamp(out.current_a, in.min_a, in.max_a);
   return drive(current_a, current_a != out.current_a, now_s);

@@ -68,7 +68,7 @@ TEST_CASE("the increment equals Eq. 17 applied with the heating sign") {
   }
 }
 
-TEST_CASE("the integral term works only inside the band |e| <= xi") {
+TEST_CASE("the integral term works only inside the band |e| < xi") {
   IncrementalPid pid{unsaturated_params()};
   pid.step(50.0, 55.0);  // |e| = 5 > 0.5: PD
   CHECK_FALSE(pid.integrating());
@@ -78,15 +78,23 @@ TEST_CASE("the integral term works only inside the band |e| <= xi") {
   CHECK_FALSE(pid.integrating());
 
   IncrementalPid inside{unsaturated_params()};
-  inside.step(54.5, 55.0);  // |e| = 0.5 = xi: PID
+  inside.step(54.625, 55.0);  // |e| = 0.375 < xi: PID
   CHECK(inside.integrating());
-  const double u1 = inside.step(54.5, 55.0);
-  const double u2 = inside.step(54.5, 55.0);
+  const double u1 = inside.step(54.625, 55.0);
+  const double u2 = inside.step(54.625, 55.0);
   // Constant error inside the band: each step adds KI * |e| of heating.
-  CHECK(u2 - u1 == Approx(0.32 * 0.5));
-  IncrementalPid just_outside{unsaturated_params()};
-  just_outside.step(54.49, 55.0);
-  CHECK_FALSE(just_outside.integrating());
+  CHECK(u2 - u1 == Approx(0.32 * 0.375));
+}
+
+TEST_CASE("an error of exactly xi is PD, as the seed's prototype runs it (|e| >= 0.5 C)") {
+  // 54.5 C is a reading the DS18B20's 1/16 C steps give: |e| = 0.5 exactly.
+  IncrementalPid pid{unsaturated_params()};
+  const double u1 = pid.step(54.5, 55.0);
+  CHECK_FALSE(pid.integrating());
+  CHECK(pid.step(54.5, 55.0) == Approx(u1));
+  IncrementalPid below{unsaturated_params()};
+  below.step(54.5625, 55.0);  // one step closer: PID
+  CHECK(below.integrating());
 }
 
 TEST_CASE("the incremental form equals a positional PID while unsaturated") {
@@ -104,7 +112,7 @@ TEST_CASE("the incremental form equals a positional PID while unsaturated") {
     const double e = measured - 55.0;
     if (first) e_prev = e;
     first = false;
-    if (std::fabs(e) <= p.xi_c) integral -= p.ki() * e;
+    if (std::fabs(e) < p.xi_c) integral -= p.ki() * e;
     const double positional = -(p.kp * e + p.kd() * (e - e_prev)) + integral;
     e_prev = e;
     REQUIRE(pid.step(measured, 55.0) == Approx(positional).margin(1e-9));
@@ -123,6 +131,17 @@ TEST_CASE("bumpless start: no derivative kick, output continues from reset value
   // the KD * 0.3 = 3 A derivative kick.
   IncrementalPid fresh{PidParams{}};
   CHECK(fresh.step(54.7, 55.0) == Approx(0.48 * 0.3 + 0.32 * 0.3));
+}
+
+TEST_CASE("resume continues from the output it is given, adding only the integral step") {
+  IncrementalPid pid{PidParams{}};
+  pid.resume(0.9);
+  // e = -0.25: the first step is 0.9 + KI * 0.25, with no proportional part
+  // added again (reset(0.9) would add Kp * 0.25 = 0.12 A) and no derivative kick.
+  CHECK(pid.step(54.75, 55.0) == Approx(0.9 + 0.32 * 0.25).margin(1e-12));
+  IncrementalPid started{PidParams{}};
+  started.reset(0.9);
+  CHECK(started.step(54.75, 55.0) == Approx(0.9 + 0.48 * 0.25 + 0.32 * 0.25).margin(1e-12));
 }
 
 TEST_CASE("output stays within the limits and reports saturation") {

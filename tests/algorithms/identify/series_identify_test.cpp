@@ -72,14 +72,36 @@ TEST_CASE("a monotone staircase does not claim a lag that a flexible bias curve 
   CHECK_FALSE(id.note.empty());
 }
 
-TEST_CASE("missing TEC Joule heating in the casing balance is named on sensor_c, with r_ohm") {
+// The casing's thermal resistance of these records: not the generator's
+// default, so an estimator that fell back on a constant of its own would miss.
+constexpr double kRecordRthKPerW = 3.2;
+
+TEST_CASE("missing TEC Joule heating in the casing balance is named on sensor_c, with r_ohm from the given r_th") {
   RecordSpec s = spec(ChamberProfile::random_steps, 5006);
   s.tec_step_a = 1.5;
+  s.casing_r_th_k_per_w = kRecordRthKPerW;
+  s.effects.tec_joule_heating = gyrotc::model::TecJouleHeatingEffect{1.2};
+  SeriesOptions o = fast();
+  o.casing_r_th_k_per_w = kRecordRthKPerW;  // the user's --r-th
+  const auto id = identify_series(generate_record(s), SeriesTarget::sensor_c, o);
+  CHECK(id.verdict == "tec_joule_heating");
+  REQUIRE(id.added.size() == 1);
+  REQUIRE(id.added[0].params.size() == 2);
+  CHECK(id.added[0].params[0].name == "r_ohm");
+  CHECK(id.added[0].params[0].value == Approx(1.2).epsilon(0.1));
+}
+
+TEST_CASE("without the casing's thermal resistance the Joule term is the rise per A^2 only, never an r_ohm") {
+  RecordSpec s = spec(ChamberProfile::random_steps, 5006);
+  s.tec_step_a = 1.5;
+  s.casing_r_th_k_per_w = kRecordRthKPerW;
   s.effects.tec_joule_heating = gyrotc::model::TecJouleHeatingEffect{1.2};
   const auto id = identify_series(generate_record(s), SeriesTarget::sensor_c, fast());
   CHECK(id.verdict == "tec_joule_heating");
   REQUIRE(id.added.size() == 1);
-  CHECK(id.added[0].params[0].value == Approx(1.2).epsilon(0.1));
+  REQUIRE(id.added[0].params.size() == 1);
+  CHECK(id.added[0].params[0].name == "rise_k_per_a2");
+  CHECK(id.added[0].params[0].value == Approx(kRecordRthKPerW * 1.2 / 2.0).epsilon(0.1));
 }
 
 TEST_CASE("sensor_c without Joule heating is answered none") {

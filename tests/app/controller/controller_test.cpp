@@ -153,8 +153,10 @@ TEST_CASE("after a sensor fault the PID restarts bumplessly where it stopped, on
   cmd = h.good_period(54.9);
   CHECK(cmd.enable);
   CHECK((cmd.flags & (kFlagTempInvalid | kFlagTempStale)) == 0);
-  // From the held current (plus the proportional term of the same error), not from 0 A.
-  CHECK(cmd.current_a == Approx(held_a).margin(0.1));
+  // From the held current plus this period's integral step (e = -0.1 C): not
+  // from 0 A, and without the proportional part counted a second time.
+  const double ki = ControllerConfig{}.pid.ki();
+  CHECK(cmd.current_a == Approx(held_a + ki * 0.1).margin(1e-9));
 }
 
 TEST_CASE("with invalid readings between valid ones the PID keeps regulating on the valid ones") {

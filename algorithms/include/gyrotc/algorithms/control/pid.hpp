@@ -34,7 +34,8 @@ void validate(const PidParams& params);
 //   du(k) = A e(k) - B e(k-1) + C e(k-2),   e(k) = c(k) - r(k) (measured - setpoint)
 //   A = Kp (1 + beta T/TI + TD/T),  B = Kp (1 + 2 TD/T),  C = Kp TD/T
 //
-// with beta = 1 while |e(k)| <= xi (PID) and beta = 0 while |e(k)| > xi (PD,
+// with beta = 1 while |e(k)| < xi (PID) and beta = 0 while |e(k)| >= xi (PD,
+// as the seed's prototype runs it, Section 4: "higher than or equal to 0.5 C";
 // Eq. 18 read as Eq. 17 with the integral term removed: the printed Eq. 18
 // drops u(k-1) and keeps T/TI in A', which contradicts the text around it).
 //
@@ -61,7 +62,10 @@ void validate(const PidParams& params);
 //
 // Bumpless start: reset(output) makes the integral part start at `output` and
 // the first step after it uses e(k-1) = e(k-2) = e(k), so there is no
-// derivative kick; a restart at zero error continues exactly at `output`.
+// derivative kick; a start at zero error continues exactly at `output`.
+// Bumpless restart: resume(output) continues a PID that was stopped with that
+// output (a sensor fault): the whole output, its proportional part included,
+// carries over, so the first step is `output` plus the integral step alone.
 //
 // Real-time safe: step() does not allocate, lock or throw. A non-finite
 // measurement or setpoint leaves the state and the output unchanged.
@@ -78,6 +82,9 @@ class IncrementalPid {
   // Clears the error history; the integral part restarts at `output` (clamped
   // to the output limits).
   void reset(double output = 0.0) noexcept;
+  // Clears the error history; the next step continues from `output` (clamped)
+  // as the whole PID output, not as its integral part.
+  void resume(double output) noexcept;
   // New gains, period, band and limits from the next step on, bumplessly: the
   // output and the error history carry over, so the velocity form's next
   // increment is the new gains' answer to the error's change (no proportional
@@ -110,6 +117,7 @@ class IncrementalPid {
   double e1_ = 0.0;      // e(k-1)
   double e2_ = 0.0;      // e(k-2)
   bool started_ = false;
+  bool resuming_ = false;  // the first step after resume(): no proportional part to take out
   bool saturated_ = false;
   bool integrating_ = false;
 };

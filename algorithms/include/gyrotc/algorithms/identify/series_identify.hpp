@@ -46,7 +46,11 @@ struct SeriesOptions {
   std::size_t max_bins = 3000;
   int folds = 5;
   double cv_block_s = 300.0;
-  double casing_r_th_k_per_w = 5.0;  // sensor_c target: converts k to r_ohm
+  // sensor_c target: the casing-to-ambient thermal resistance, K/W, that turns
+  // the fitted Joule term (the casing's rise per A^2) into the TEC's r_ohm.
+  // A record cannot tell it apart from r_ohm: 0 = not known, and then only
+  // rise_k_per_a2 is given.
+  double casing_r_th_k_per_w = 0.0;
   // gyro_mv: the base model's own lag from the sensed casing to the die
   // (the plant's die capacity / casing-die conductance); 0 takes the sensor
   // temperature as the die's. Effects then act on top of it, as in the plant.

@@ -171,8 +171,9 @@ class Controller {
 
   void set_flag(std::uint32_t flag, bool on) noexcept;
   void record_command(double current_a) noexcept;
-  // TEC off; resume_a is where the PID's integral restarts (if it was running).
-  TecCommand off(double now_s, double resume_a) noexcept;
+  // TEC off. With `resume`, the PID (if it was running) restarts from
+  // resume_a bumplessly (IncrementalPid::resume); without, from 0 A.
+  TecCommand off(double now_s, bool resume, double resume_a = 0.0) noexcept;
   TecCommand drive(double current_a, bool saturated, double now_s) noexcept;
   // The current the stage can apply now: out_min/out_max within the rails.
   control::CurrentRange applied_range() const noexcept;
@@ -216,6 +217,7 @@ class Controller {
 
   bool pid_running_ = false;
   bool reading_since_tick_ = false;  // a valid casing reading came since the last tick
+  bool resume_ = false;              // the next start continues the PID where a fault stopped it
   double resume_a_ = 0.0;            // the PID output to restart from
   control::TecProgram* program_ = nullptr;
   bool program_started_ = false;
