@@ -69,8 +69,11 @@ TEST_CASE("early stopping holds out interior points and keeps the best validatio
   o.max_epochs = 200;
   const BpTrainResult r = train_bp_network(table.temp_c, table.gyro_mv, o);
   CHECK(r.validation_mse > 0.0);
-  CHECK((r.stop_reason == "validation" || r.stop_reason == "max_epochs" || r.stop_reason == "mu_max"));
-  CHECK(r.epochs <= 200);
+  // 6 hidden units on Table 2's 25 points overfit long before 200 epochs:
+  // the held-out error rising is what stops it (any other reason would mean
+  // early stopping never acted).
+  CHECK(r.stop_reason == "validation");
+  CHECK(r.epochs < 200);
 }
 
 TEST_CASE("restarts share one validation split and the lowest held-out error wins") {

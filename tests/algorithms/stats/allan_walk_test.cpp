@@ -96,8 +96,15 @@ TEST_CASE("allan takes the walk from the block means only where it hides below a
   // above the 7.2 s blocks: the REML value replaces the fit's.
   const std::vector<double> hidden = generate_rate_noise({0.0, kArw, 10.0 / 3600.0, kRrw, 0.0}, 10.0, kSamples, 5);
   const AllanResult refined = allan_deviation(hidden, 10.0);
-  CHECK(walk(refined) != walk(allan_deviation(hidden, 10.0, off)));
-  CHECK(walk(refined) > 0.0);
+  const double fit_only = walk(allan_deviation(hidden, 10.0, off));
+  INFO("truth " << kRrw << ", REML " << walk(refined) << ", fit only " << fit_only);
+  // Replaced (the REML path ran), and by a value within a factor 2 of the
+  // truth: a replacement by anything else would pass the first check alone.
+  // (Closer than the fit's own is not claimed: on this seed REML is 12 % low,
+  // the fit 10 %; the accuracy over seeds is allan_noise_test's.)
+  CHECK(walk(refined) != fit_only);
+  CHECK(walk(refined) > 0.5 * kRrw);
+  CHECK(walk(refined) < 2.0 * kRrw);
 }
 
 TEST_CASE("records with no walk to speak of keep a finite upper bound for it, over 20 seeds") {
