@@ -78,7 +78,7 @@ jq -r '"samples accepted        \(.sim_adc.accepted_samples)",
        "DRDY timeouts           \(.adc_timeouts)",
        "overruns                \(.overruns)",
        "SCHED_FIFO              \(.realtime)",
-       "latency us p50/p99/max  \(.latency_us.p50)/\(.latency_us.p99)/\(.latency_us.max)"' "$summary"
+       "latency us p50/p99/max  \(.latency_us.p50 | round)/\(.latency_us.p99 | round)/\(.latency_us.max | round)"' "$summary"
 if jq -e '.sim_adc.accepted_corrupted_samples == 0 and .late_reads >= .sim_adc.corrupted_transfers' "$summary" >/dev/null; then
   echo "PASS: no corrupted sample accepted; every corrupted transfer counted as a late read"
 else
