@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <utility>
 
 #include "gyrotc/app/runtime/controller.hpp"
 #include "gyrotc/app/support/log.hpp"
@@ -46,16 +47,22 @@ void StatusPublisher::track_faults(std::uint32_t flags, double now_unix_s) {
 }
 
 void StatusPublisher::set_files(const std::string& status_file, const std::string& metrics_file) {
-  const auto move = [this](std::string& path, const std::string& to, const char* key, bool& warned) {
-    if (path == to) return;
-    // The old file would only go stale, and read as a daemon that died.
-    if (!path.empty()) std::remove(path.c_str());
-    GYROTC_LOG_NOTICE("[output] %s: now %s", key, to.empty() ? "none" : to.c_str());
-    path = to;
-    warned = false;
+  const std::string old_status = std::exchange(options_.status_file, status_file);
+  const std::string old_metrics = std::exchange(options_.metrics_file, metrics_file);
+  if (old_status == status_file && old_metrics == metrics_file) return;
+  status_warned_ = false;
+  metrics_warned_ = false;
+  // The new files first (after the first update: before it there is nothing
+  // to say), then the old ones go: one no longer written would only go
+  // stale and read as a daemon that died.
+  if (status_.written_unix_s > 0.0) write();
+  const auto retire = [](const std::string& old_path, const std::string& path, const char* key) {
+    if (old_path == path) return;
+    if (!old_path.empty()) std::remove(old_path.c_str());
+    GYROTC_LOG_NOTICE("[output] %s: now %s", key, path.empty() ? "none" : path.c_str());
   };
-  move(options_.status_file, status_file, "status_file", status_warned_);
-  move(options_.metrics_file, metrics_file, "metrics_file", metrics_warned_);  // written at the next update
+  retire(old_status, status_file, "status_file");
+  retire(old_metrics, metrics_file, "metrics_file");
 }
 
 void StatusPublisher::set_control(std::string mode, double tec_limit_a) {

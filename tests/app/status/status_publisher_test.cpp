@@ -151,3 +151,20 @@ TEST_CASE("a status file that cannot be written is a warning once, and the daemo
   const std::string log = capture.text();
   CHECK(count(log, "cannot write /nonexistent-dir/status.json") == 1);
 }
+
+TEST_CASE("a reload that moves the status file writes the new one at once and removes the old one") {
+  const fs::path dir = gyrotc::test::scratch_dir();
+  const std::string old_file = (dir / ("moved_from_" + std::to_string(::getpid()) + ".json")).string();
+  const std::string new_file = (dir / ("moved_to_" + std::to_string(::getpid()) + ".json")).string();
+  fs::remove(new_file);
+  StatusPublisherOptions o = in_memory();
+  o.status_file = old_file;
+  StatusPublisher p(o);
+  p.update(loop_at(55.0), {}, {}, 1.0, 1001.0);
+  REQUIRE(fs::exists(old_file));
+  p.set_files(new_file, "");
+  // No update in between: `gyrotc status` must find the new file already.
+  CHECK(fs::exists(new_file));
+  CHECK_FALSE(fs::exists(old_file));
+  fs::remove(new_file);
+}
