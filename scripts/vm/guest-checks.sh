@@ -23,8 +23,8 @@ set -u
 PLAN=(deb-install sysusers gpio-sim-module udev-gpiochip gpio-chip-lookup gpio-drdy-edge gpio-drdy-timeout
       gpio-drdy-conversions gpio-edge-queue gpio-discard gpio-es-output gpio-consumers safe-off-es
       hil-emulator hil-probe hil-tune start realtime sandbox watchdog outputs hil-settle
-      journal-quiet status reload-control hil-sensor-loss hil-opa548 hil-adc-stall hil-stop stop hil-calibration reload hil-compensation
-      hil-crash-safe-off crash-restart output-refused seccomp-kill)
+      journal-quiet status reload-control hil-sensor-loss hil-opa548 hil-adc-stall hil-stop stop
+      hil-calibration reload hil-compensation hil-crash-safe-off crash-restart output-refused seccomp-kill)
 echo "vm-test: plan ${PLAN[*]}"
 [ "${1:-}" = --plan ] && exit 0
 
@@ -184,9 +184,8 @@ fi
 # line). A CUSE node is not spidev's major, so the unit's DeviceAllow=char-spi
 # does not cover it: a drop-in names the nodes (docs/EMULATOR.md).
 HIL_CHECKS=(hil-emulator hil-probe hil-tune start realtime sandbox watchdog outputs hil-settle journal-quiet status
-            reload-control hil-sensor-loss
-            hil-opa548 hil-adc-stall hil-stop stop hil-calibration reload hil-compensation hil-crash-safe-off
-            crash-restart output-refused seccomp-kill)
+            reload-control hil-sensor-loss hil-opa548 hil-adc-stall hil-stop stop hil-calibration reload
+            hil-compensation hil-crash-safe-off crash-restart output-refused seccomp-kill)
 modprobe cuse 2>/dev/null
 modprobe wire 2>/dev/null
 install -m 0644 /usr/share/gyrotc-emu/gyrotc-emu.toml "$CONF"
