@@ -31,8 +31,10 @@ bool same_stream(const RowOutputsConfig& a, const RowOutputsConfig& b) {
   return a.output.path == b.output.path && (k != StreamKind::serial || a.output.baud == b.output.baud);
 }
 
+// The path only: opening the record truncates it, so the same path is never
+// opened again (a changed write_timeout_s applies from the next file on).
 bool same_record(const RowOutputsConfig& a, const RowOutputsConfig& b) {
-  return a.output.record_csv == b.output.record_csv && a.output.write_timeout_s == b.output.write_timeout_s;
+  return a.output.record_csv == b.output.record_csv;
 }
 
 std::unique_ptr<LineSink> open_stream(const RowOutputsConfig& c) {

@@ -59,7 +59,8 @@ TEST_CASE("a reload that keeps the record's path goes on in the same file, its h
   RowOutputs outputs(record_to(csv));
   outputs.write(row(1.0));
   RowOutputsConfig again = record_to(csv);
-  again.output.status_interval_s = 5.0;  // another [output] key changed
+  again.output.status_interval_s = 5.0;  // other [output] keys changed
+  again.output.write_timeout_s = 2.0;    // the record's own: still not a reason to truncate it
   CHECK(outputs.reconfigure(again).empty());
   outputs.write(row(2.0));
   outputs.flush();
