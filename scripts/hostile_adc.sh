@@ -12,7 +12,7 @@
 # Usage: scripts/hostile_adc.sh [--duration S] [--gyrotc PATH] [--out DIR]
 #   --duration S   seconds of the run (default 600)
 #   --gyrotc PATH  the executable (default build/release/app/gyrotc, else
-#                  build/debug-asan/app/gyrotc)
+#                  build/debug-asan/app/gyrotc, else gyrotc on PATH)
 #   --out DIR      configuration, log and summary (default build/hostile-adc)
 # Needs jq. Runs with --allow-non-rt where SCHED_FIFO is not permitted. The
 # short version is a test: tests/integration/faults/hostile_adc_test.cpp.
@@ -35,6 +35,7 @@ if [ -z "$gyrotc" ]; then
   for candidate in build/release/app/gyrotc build/debug-asan/app/gyrotc; do
     if [ -x "$candidate" ]; then gyrotc=$candidate; break; fi
   done
+  [ -n "$gyrotc" ] || gyrotc=$(command -v gyrotc || true)  # an installed one
 fi
 [ -n "$gyrotc" ] && [ -x "$gyrotc" ] || { echo "hostile_adc.sh: no gyrotc executable; build first or pass --gyrotc" >&2; exit 2; }
 command -v jq >/dev/null || { echo "hostile_adc.sh: needs jq (apt install jq)" >&2; exit 2; }

@@ -11,11 +11,13 @@
 #   <!-- doc-test: check (WHY IT DOES NOT RUN HERE) -->
 #       a board, root or hour-long command: not run, but checked.
 #
-# Every block, run or not, is checked: each `gyrotc COMMAND` (also after sudo)
-# must be a command and each --option it shows must be in that command's
-# --help; each `gyrotc-emu ctl NAME`/`gyrotc-emu COMMAND` likewise when the
-# emulator is built; each scripts/NAME it names must exist, be executable and
-# parse (bash -n).
+# Every sh block, run or not, and every inline code span of the prose that
+# starts with `gyrotc CMD` or `scripts/` is checked: each `gyrotc COMMAND`
+# (also after sudo) must be a command and each --option it shows must be in
+# that command's --help; each `gyrotc-emu ctl NAME`/`gyrotc-emu COMMAND`
+# likewise when the emulator is built; each scripts/NAME it names must exist,
+# be executable and parse (bash -n), and the options shown must be in its
+# --help when it has one. A run block's folder also holds a copy of scripts/.
 # A failure names the document and line, the command, and the output's end.
 #
 # Usage: doc_commands.sh --doc FILE --source DIR --bin DIR [--emu PATH] --work DIR
@@ -54,6 +56,12 @@ help_of() {  # EXE COMMAND...
   printf '%s' "${helps[$key]}"
 }
 
+# The regex of the line of a --help that defines OPTION (not one that only
+# mentions it): "  --plot TEXT", "  -o,--out DIR", "  -h, --help".
+option_line() {  # OPTION
+  printf '^[[:space:]]*(-[[:alnum:]],[[:space:]]*)?%s([ ,=]|$)' "$1"
+}
+
 # Checks one logical line (continuations joined) of a block.
 check_line() {  # LINE TEXT
   local line=$1 text=$2 words i w cmd exe
@@ -69,6 +77,23 @@ check_line() {  # LINE TEXT
           fail "$line" "$script: no such executable script"
         elif ! bash -n "$source/$script" 2> "$work/syntax.log"; then
           fail "$line" "$script: a syntax error: $(head -n 1 "$work/syntax.log")"
+        elif grep -qE -- '-h *\| *--help|--help\)' "$source/$script"; then
+          # A script with a --help: every option shown must be in it.
+          local script_help k sopt
+          script_help=$(help_of "$source/$script")
+          for ((k = i + 1; k < ${#words[@]}; ++k)); do
+            sopt=${words[k]}
+            case "$sopt" in \&\&|\||\;|\>|\>\>) break ;; esac
+            sopt=${sopt#[}
+            sopt=${sopt%%]*}
+            sopt=${sopt%%=*}
+            case "$sopt" in
+              --*)
+                grep -qE -- "$(option_line "$sopt")" <<< "$script_help" ||
+                  fail "$line" "$script has no option $sopt (not in its --help)"
+                ;;
+            esac
+          done
         fi
         ;;
     esac
@@ -99,7 +124,7 @@ check_line() {  # LINE TEXT
         opt=${opt%%=*}
         case "$opt" in
           --*)
-            grep -qE -- "(^|[ ,])${opt}([ ,=]|$)" <<< "$help" ||
+            grep -qE -- "$(option_line "$opt")" <<< "$help" ||
               fail "$line" "'${w} ${exe[*]:1}' has no option $opt (not in its --help)"
             ;;
         esac
@@ -133,7 +158,7 @@ run_block() {  # START ANNOTATION BODY
   local dir="$work/line-$start"
   rm -rf "$dir"
   mkdir -p "$dir"
-  cp -r "$source/data" "$source/deploy" "$dir/"
+  cp -r "$source/data" "$source/deploy" "$source/scripts" "$dir/"
   printf 'set -euo pipefail\n%s\n' "$body" > "$dir/block.sh"
   local rc=0
   (cd "$dir" && PATH="$bin:$PATH" bash block.sh > output.log 2>&1) || rc=$?
@@ -155,21 +180,35 @@ run_block() {  # START ANNOTATION BODY
 }
 
 lineno=0
+indent=""
 while IFS= read -r text || [ -n "$text" ]; do
   lineno=$((lineno + 1))
   if [ $in_block -eq 1 ]; then
+    text=${text#"$indent"}  # a block inside a list item is indented
     if [[ $text == '```'* ]]; then
-      run_block "$start" "$annotation" "$body"
+      [ "$annotation" = other ] || run_block "$start" "$annotation" "$body"
       in_block=0
     else
       body+="${body:+$'\n'}$text"
     fi
     continue
   fi
-  if [[ $text == '```sh'* ]]; then
-    in_block=1 start=$lineno body="" blocks=$((blocks + 1))
-    annotation=""
-    if [[ $prev =~ ^\<\!--\ doc-test:\ (.*)\ --\>$ ]]; then annotation=${BASH_REMATCH[1]}; fi
+  indent=${text%%[![:space:]]*}
+  text=${text#"$indent"}
+  if [[ $text == '```'* ]]; then
+    in_block=1 start=$lineno body="" annotation=""
+    if [[ $text == '```sh'* ]]; then
+      blocks=$((blocks + 1))
+      if [[ $prev =~ ^\<\!--\ doc-test:\ (.*)\ --\>$ ]]; then annotation=${BASH_REMATCH[1]}; fi
+    else
+      annotation=other
+    fi
+  else
+    # Commands in the prose's inline code: `gyrotc CMD --opt`, `scripts/X.sh --opt`.
+    while IFS= read -r span; do
+      span=${span:1:${#span}-2}
+      [[ $span =~ ^(sudo\ )?(gyrotc\ [a-z]|(\./)?scripts/) ]] && check_line "$lineno" "$span"
+    done < <(grep -oE '`[^`]+`' <<< "$text")
   fi
   prev=$text
 done < "$doc"
