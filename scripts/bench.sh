@@ -40,6 +40,15 @@ config=${CONFIG:-deploy/config/gyrotc-sim.toml}
 jobs=${JOBS:-$(nproc)}
 
 [ "$deps" = 1 ] && scripts/deps.sh native bench
+
+# The last recorded run (the report this one replaces): its simulation speed,
+# when and on which CPU, so that a slowdown shows in the new report.
+prev_speedup= prev_when= prev_cpu=
+if [ -f "$out" ]; then
+  prev_speedup=$(awk -F'|' '/^\| fig26 simulation at 1 kHz, simulated time/ {gsub(/[ x*]/, "", $4); print $4; exit}' "$out")
+  prev_when=$(sed -nE 's/^Written by .* on (.*); do not edit.*/\1/p' "$out")
+  prev_cpu=$(awk -F'|' 'f && /^\|---/ {next} f {gsub(/^ +| +$/, "", $2); print $2; exit} /^\| CPU \|/ {f = 1}' "$out")
+fi
 load_start=$(cut -d' ' -f1-3 /proc/loadavg)
 
 echo "=== configure + build (Release, $build)"
@@ -170,6 +179,20 @@ steady_max=$(awk -F'|' '$1 ~ /^BM_SamplePath\/[0-9]\/0$/ && $3 > m {m = $3} END 
 read -r worst_max worst_kind < <(awk -F'|' '$1 ~ /^BM_SamplePath\/[0-9]\/1$/ && $3 > m {m = $3; k = $2}
   END {split(k, w, " "); printf "%.1f %s\n", m, w[1]}' "$tmp/per_sample.txt")
 id_wall=$(wall_of identify)
+# This run's simulation speed against the last recorded one: on the same CPU
+# a ratio below 0.8 is a slowdown (say so here too, not only in the report).
+sim_vs_prev="n/a" sim_vs_prev_met="n/a (no earlier report)"
+if [[ $prev_speedup =~ ^[0-9.]+$ ]]; then
+  sim_vs_prev=$(awk -v a="$sim_speedup" -v b="$prev_speedup" 'BEGIN {printf "%.2f", a / b}')
+  if [ "$prev_cpu" = "$cpu" ]; then
+    sim_vs_prev_met=$(met "$sim_vs_prev" 0.8 '>=')
+    if [ "$sim_vs_prev_met" != yes ]; then
+      echo "bench.sh: the simulation ran ${sim_vs_prev}x the speed of the last recorded run ($prev_speedup x, $prev_when): a slowdown" >&2
+    fi
+  else
+    sim_vs_prev_met="n/a (that run: $prev_cpu)"
+  fi
+fi
 
 mkdir -p "$(dirname "$out")"
 {
@@ -196,7 +219,8 @@ mkdir -p "$(dirname "$out")"
   else
     echo "| loop latency p99, ours / cyclictest | <= 1.5 | $latency_note | n/a |"
   fi
-  echo "| fig26 simulation at 1 kHz, simulated time / CPU time | >= 10000x | $(printf '%.0f' "$sim_speedup")x | $(met "$sim_speedup" 10000 '>=') |"
+  echo "| fig26 simulation at 1 kHz, simulated time / CPU time | >= 30000x | $(printf '%.0f' "$sim_speedup")x | $(met "$sim_speedup" 30000 '>=') |"
+  echo "| the same, this run / the last recorded one (${prev_speedup:-none}x, ${prev_when:-never}) | >= 0.8 on the same CPU | $sim_vs_prev | $sim_vs_prev_met |"
   echo "| \`gyrotc identify\` on a 24 h 1 Hz record (whole command) | <= 10 s | $id_wall s | $(met "$id_wall" 10 '<=') |"
   echo
   echo "## Per-sample cost (bench/per_sample)"
