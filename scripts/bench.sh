@@ -149,6 +149,7 @@ fi
 echo "=== fig26 simulation at 1 kHz"
 "$build/bench/simulate_speed" --benchmark_out="$tmp/sim.json" --benchmark_out_format=json >/dev/null
 sim_speedup=$(jq -r '[.benchmarks[] | select(.run_type == "iteration")][0].speedup' "$tmp/sim.json")
+sim_bit_speedup=$(jq -r '[.benchmarks[] | select(.run_type == "iteration")][1].speedup' "$tmp/sim.json")
 measure simulate "$gyrotc" simulate --profile fig26 --sample-rate-hz 1000 --json
 cli_speedup=$(jq -r '.speedup' "$tmp/simulate.out")
 simulated_h=$(jq -r '.simulated_s / 3600' "$tmp/simulate.out")
@@ -279,7 +280,9 @@ mkdir -p "$(dirname "$out")"
   echo
   echo "| job | wall s | figure | peak memory MiB |"
   echo "|---|---|---|---|"
-  printf '| fig26 simulation at 1 kHz (bench/simulate_speed, in process) | | speedup %.0fx (simulated / CPU time) | |\n' "$sim_speedup"
+  printf '| fig26 simulation at 1 kHz (bench/simulate_speed, in process), transaction-level ADC (the default) | | speedup %.0fx (simulated / CPU time) | |\n' "$sim_speedup"
+  printf '| the same, bit-level ADC (`--adc-model bit`) | | speedup %.0fx (%.2fx slower) | |\n' "$sim_bit_speedup" \
+    "$(awk -v a="$sim_speedup" -v b="$sim_bit_speedup" 'BEGIN {print a / b}')"
   printf '| `gyrotc simulate --profile fig26 --sample-rate-hz 1000` | %s | speedup %.0fx over %.1f h simulated | %s |\n' \
     "$(wall_of simulate)" "$cli_speedup" "$simulated_h" "$(mib_of simulate)"
   for m in "${fit_methods[@]}"; do

@@ -274,6 +274,7 @@ SimulationResult run_simulation(const SimulationSetup& setup, const model::Chamb
   options.thermal_step_s = plant.max_thermal_step_s;
   options.adc.fclk_hz = setup.sample_rate_hz * hal::Ads1251::kClocksPerSample;
   options.tec_current_limit_a = plant.current_limit_a;
+  options.adc_model = setup.adc_model;
   // An ambient DS18B20 only for a controller that uses it (the seed's board had
   // none): on the shared bus it costs the casing sensor a slot every 10 s.
   options.ambient_sensor =

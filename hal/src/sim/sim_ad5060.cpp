@@ -26,11 +26,12 @@ Status SimAd5060::do_configure(const SpiConfig& config) noexcept {
 
 Status SimAd5060::do_transfer(std::span<const std::uint8_t> tx, std::span<std::uint8_t> rx) noexcept {
   if (!configured_) return Error::make(ErrorCode::invalid_config, "%s: SPI not configured", name_.c_str());
-  std::fill(rx.begin(), rx.end(), std::uint8_t{0});  // the AD5060 has no data output
-  if (tx.size() != 3 || speed_hz_ > kMaxSclkHz) {
+  if (tx.size() != 3 || rx.size() != 3 || speed_hz_ > kMaxSclkHz) {
+    for (std::uint8_t& b : rx) b = 0;  // the AD5060 has no data output
     ++ignored_frames_;
     return {};
   }
+  rx[0] = rx[1] = rx[2] = 0;  // (three stores: a loop here became a memset call per sample)
   std::uint32_t word = static_cast<std::uint32_t>(tx[0]) << 16 | static_cast<std::uint32_t>(tx[1]) << 8 | tx[2];
   if (spi_mode_ == 0) word = (word << 1) & 0xFFFFFFu;  // each latch takes the next bit (see the header)
   code_ = static_cast<std::uint16_t>(word & 0xFFFFu);

@@ -44,14 +44,6 @@ SimAds1251::SimAds1251(Input& input, Clock& clock, const Config& config) noexcep
   history_index_.fill(-1);
 }
 
-std::int32_t SimAds1251::code_for_mv(double mv) const noexcept {
-  const double code = mv * codes_per_mv_;
-  if (!(code < Ads1251::kCodeMax)) return std::isnan(code) ? 0 : Ads1251::kCodeMax;
-  if (code <= Ads1251::kCodeMin) return Ads1251::kCodeMin;
-  // Round half away from zero; cheaper than nearbyint on the per-sample path.
-  return static_cast<std::int32_t>(code + (code < 0.0 ? -0.5 : 0.5));
-}
-
 SimAds1251::Counters SimAds1251::counters() const noexcept {
   return {.conversions = conversions_.load(std::memory_order_relaxed),
           .reads = reads_.load(std::memory_order_relaxed),

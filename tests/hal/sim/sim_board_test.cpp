@@ -3,6 +3,7 @@
 #include <atomic>
 #include <chrono>
 #include <cmath>
+#include <stdexcept>
 #include <thread>
 
 #include "gyrotc_catch.hpp"
@@ -141,7 +142,9 @@ TEST_CASE("an injected stuck sensor freezes while the casing warms") {
 }
 
 TEST_CASE("an injected DRDY stall and SPI error make ADC reads fail") {
-  SimBoard sim{params_at(25.0), 1};
+  SimBoardOptions options;
+  options.adc_model = GENERATE(SimAdcModel::bit_level, SimAdcModel::transaction);
+  SimBoard sim{params_at(25.0), 1, options};
   Board board = sim.board();
   sim.inject_drdy_stall(true);
   const auto stalled = board.adc.read(0.01);
@@ -155,6 +158,56 @@ TEST_CASE("an injected DRDY stall and SPI error make ADC reads fail") {
   CHECK(broken.error().code() == ErrorCode::io);
   sim.inject_spi_error(false);
   CHECK(board.adc.read(0.01).ok());
+}
+
+TEST_CASE("lockstep, instant reader: the transaction-level ADC gives the bit-level path's samples, clock and plant") {
+  SimBoardOptions bit_options;
+  SimBoardOptions transaction_options;
+  transaction_options.adc_model = SimAdcModel::transaction;
+  SimBoard bit_sim{params_at(20.0), 11, bit_options};
+  SimBoard transaction_sim{params_at(20.0), 11, transaction_options};
+  Board bit = bit_sim.board();
+  Board transaction = transaction_sim.board();
+  for (Board* b : {&bit, &transaction}) {
+    REQUIRE(b->tec.enable(true).ok());
+  }
+  int compared = 0;
+  for (int i = 0; i < 20000; ++i) {
+    if (i % 700 == 0) {  // the TEC current changes: plant steps between the two must fall alike
+      const double current_a = 0.9 * std::sin(0.37 * i);
+      REQUIRE(bit.tec.set_current_a(current_a).ok());
+      REQUIRE(transaction.tec.set_current_a(current_a).ok());
+    }
+    if (i == 5000) {  // the clock moved past a stretch of conversions, unread
+      bit_sim.advance_to(bit.clock.now_s() + 0.0503);
+      transaction_sim.advance_to(transaction.clock.now_s() + 0.0503);
+    }
+    const auto a = bit.adc.read(0.01);
+    const auto b = transaction.adc.read(0.01);
+    REQUIRE(a.ok());
+    REQUIRE(b.ok());
+    REQUIRE(a->time_s == b->time_s);
+    REQUIRE(a->code == b->code);
+    REQUIRE(a->gyro_mv == b->gyro_mv);
+    REQUIRE(a->clipped == b->clipped);
+    REQUIRE(bit.clock.now_s() == transaction.clock.now_s());
+    REQUIRE(bit_sim.plant().casing_c() == transaction_sim.plant().casing_c());
+    REQUIRE(bit_sim.plant().time_s() == transaction_sim.plant().time_s());
+    ++compared;
+  }
+  CHECK(compared == 20000);
+  CHECK(transaction_sim.accepted_samples() == 20000);
+  CHECK(transaction_sim.accepted_corrupted_samples() == 0);
+}
+
+TEST_CASE("the transaction-level ADC is refused in real time and with a reader that has timing") {
+  SimBoardOptions options;
+  options.adc_model = SimAdcModel::transaction;
+  options.realtime = true;
+  CHECK_THROWS_AS((SimBoard{params_at(20.0), 1, options}), std::invalid_argument);
+  options.realtime = false;
+  options.adc_timing.wake_max_s = 50e-6;
+  CHECK_THROWS_AS((SimBoard{params_at(20.0), 1, options}), std::invalid_argument);
 }
 
 TEST_CASE("an injected OPA548 thermal shutdown raises the flag and cuts the TEC current") {

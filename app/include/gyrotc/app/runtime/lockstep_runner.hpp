@@ -183,6 +183,9 @@ struct SimulationSetup {
   // The board has an ambient DS18B20 when the controller uses one (feed-
   // forward) or a programme runs (it records the ambient), unless set here.
   std::optional<bool> ambient_sensor;
+  // The rate ADC's model (hal::SimAdcModel): transaction gives the bit-level
+  // path's samples at a fifth of its cost, since this reader is instant.
+  hal::SimAdcModel adc_model = hal::SimAdcModel::transaction;
 };
 
 struct SimulationResult {

@@ -7,6 +7,7 @@
 #include <limits>
 #include <optional>
 
+#include "gyrotc/hal/chips/ads1251.hpp"
 #include "gyrotc/hal/clock.hpp"
 #include "gyrotc/hal/gpio_line.hpp"
 #include "gyrotc/hal/spi_bus.hpp"
@@ -135,7 +136,13 @@ class SimAds1251 {
   GpioLine& drdy() noexcept { return drdy_; }
 
   // The code the converter produces for an input (rounded, clipped).
-  std::int32_t code_for_mv(double mv) const noexcept;
+  std::int32_t code_for_mv(double mv) const noexcept {
+    const double code = mv * codes_per_mv_;
+    if (!(code < Ads1251::kCodeMax)) return code != code ? 0 : Ads1251::kCodeMax;  // NaN: 0
+    if (code <= Ads1251::kCodeMin) return Ads1251::kCodeMin;
+    // Round half away from zero; cheaper than nearbyint on the per-sample path.
+    return static_cast<std::int32_t>(code + (code < 0.0 ? -0.5 : 0.5));
+  }
   double sample_period_s() const noexcept { return period_s_; }
   // The code conversion k (DRDY edge at k * sample_period_s) produced, while
   // it is among the last kHistory conversions.
@@ -150,6 +157,8 @@ class SimAds1251 {
   // every SPI transfer fails.
   void set_drdy_stall(bool on) noexcept { stall_.store(on, std::memory_order_relaxed); }
   void set_spi_error(bool on) noexcept { spi_error_.store(on, std::memory_order_relaxed); }
+  bool drdy_stalled() const noexcept { return stall_.load(std::memory_order_relaxed); }
+  bool spi_failing() const noexcept { return spi_error_.load(std::memory_order_relaxed); }
   // Noise (the thread that reads): one spike low at t_s, a falling edge the
   // part itself never makes.
   void inject_glitch(double t_s) noexcept { glitch_s_ = t_s; }

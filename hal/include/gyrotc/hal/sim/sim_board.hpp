@@ -20,6 +20,24 @@
 
 namespace gyrotc::hal {
 
+// How the simulated board delivers the rate ADC's samples.
+enum class SimAdcModel : std::uint8_t {
+  // The Ads1251 driver over the bit-level SimAds1251: every pin edge and
+  // timing window, each sample checked against its conversion (CheckedAdc).
+  // Any reader timing, either clock.
+  bit_level,
+  // Lockstep with an instant reader only (adc_timing all zero): each
+  // conversion's code handed over at its DRDY edge, the clock moved as the
+  // driver's read of it moves it (to the edge, the hold-off, 24 SCLKs).
+  // There the driver reads every conversion whole, so this is the bit-level
+  // path's result sample for sample (tests/hal/sim/sim_board_test.cpp) at a
+  // fifth of its cost. A conversion the clock was moved past unread is
+  // converted and missed (bit_level may still read the last one if its DOUT
+  // window is open); an injected DRDY stall times out, an SPI fault fails the
+  // read, as there.
+  transaction,
+};
+
 struct SimBoardOptions {
   // false: lockstep (virtual time, single thread); true: real time.
   bool realtime = false;
@@ -43,6 +61,7 @@ struct SimBoardOptions {
   // daemon's [sim] table defaults to a PREEMPT_RT Raspberry Pi 4's typical
   // figures (app::SimConfig); real-time mode adds the host's own latency.
   SimAds1251::Timing adc_timing;
+  SimAdcModel adc_model = SimAdcModel::bit_level;  // transaction: lockstep, instant reader only
 };
 
 // The simulated board: the same chip drivers as on the real board, over
@@ -113,7 +132,9 @@ class SimBoard final : ClockListener, SimAds1251::Input, SimAd5060::Listener, Si
   // ADC samples the driver returned, and those whose code is not the code of
   // the conversion their time stamp names (a mixed, shifted or zero read the
   // driver took for good). Any thread.
-  std::uint64_t accepted_samples() const noexcept { return checked_adc_.accepted(); }
+  std::uint64_t accepted_samples() const noexcept {
+    return checked_adc_.accepted() + transaction_adc_.accepted();
+  }
   std::uint64_t accepted_corrupted_samples() const noexcept { return checked_adc_.corrupted(); }
 
  private:
@@ -132,6 +153,26 @@ class SimBoard final : ClockListener, SimAds1251::Input, SimAd5060::Listener, Si
     const SimAds1251& chip_;
     std::atomic<std::uint64_t> accepted_{0};
     std::atomic<std::uint64_t> corrupted_{0};
+  };
+
+  // SimAdcModel::transaction (see there).
+  class TransactionAdc final : public RateAdc {
+   public:
+    explicit TransactionAdc(SimBoard& board) noexcept;
+    std::uint64_t accepted() const noexcept { return accepted_.load(std::memory_order_relaxed); }
+
+   private:
+    Result<AdcSample> do_read(double timeout_s) noexcept override;
+    AdcReadStats do_stats() const noexcept override { return stats_; }
+    double edge_s(std::int64_t k) const noexcept { return static_cast<double>(k) * period_s_; }
+    SimBoard& board_;
+    double period_s_;
+    double hold_off_s_;   // the driver's: DOUT mode starts 12 tCLK after the edge, then t6
+    double bit_s_;        // one SCLK at the configured speed
+    std::int64_t next_k_; // the next conversion (DRDY edge at next_k_ * period_s_)
+    bool have_read_ = false;
+    AdcReadStats stats_;
+    std::atomic<std::uint64_t> accepted_{0};
   };
 
   void on_time_advanced(double now_s) noexcept override;
@@ -162,6 +203,7 @@ class SimBoard final : ClockListener, SimAds1251::Input, SimAd5060::Listener, Si
 
   Ads1251 adc_;
   CheckedAdc checked_adc_;
+  TransactionAdc transaction_adc_;
   Ad5060 rate_dac_;
   Ad5060 tec_dac_;
   Opa548 opa548_;
