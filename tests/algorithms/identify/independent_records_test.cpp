@@ -2,6 +2,7 @@
 // a different bias curve, 2 s sampling, a two-node casing, white noise plus a
 // Gauss-Markov bias wander, gaps. The thresholds were never chosen on it;
 // the full set is in tools/identify_sweep (family C), these are a few.
+#include <cstdint>
 #include <string>
 
 #include "gyrotc/algorithms/identify/series_identify.hpp"
@@ -51,15 +52,37 @@ TEST_CASE("a null record under bias wander of 300 s correlation time is answered
   CHECK(id.verdict == "none");
 }
 
-TEST_CASE("the wander of the noise is estimated, not ignored: its correlation time is of the right order") {
-  const auto id = identify_series(make_independent_record(spec(203, 1000.0)), SeriesTarget::gyro_mv, fast());
-  double wander_sd = 0.0;
+// The generator's wander: 0.15 mV stationary sd (IndependentSpec::wander_mv).
+struct Wander {
+  double sd_mv = 0.0;
+  double tau_s = 0.0;
+};
+
+Wander estimated_wander(std::uint64_t seed, double tau_s) {
+  const auto id = identify_series(make_independent_record(spec(seed, tau_s)), SeriesTarget::gyro_mv, fast());
+  Wander w;
   for (const auto& p : id.baseline_params) {
-    if (p.name == "wander_sd") wander_sd = p.value;
+    if (p.name == "wander_sd") w.sd_mv = p.value;
+    if (p.name == "wander_tau_s") w.tau_s = p.value;
   }
-  // 0.15 mV of wander in truth; the flexible bias curve soaks up part of it.
-  CHECK(wander_sd > 0.05);
-  CHECK(wander_sd < 0.3);
+  return w;
+}
+
+TEST_CASE("the wander of the noise is estimated, not ignored: its size and correlation time are of the truth's order") {
+  // Six hours hold 20-70 correlation times: a third on the size, a factor 2 on
+  // the time is what such a record can tell (seeds 203-205 gave 0.12-0.18 mV
+  // and 0.7-1.7x the time); the flexible bias curve soaks up a little of it.
+  const Wander slow = estimated_wander(203, 1000.0);
+  const Wander fast_wander = estimated_wander(203, 300.0);
+  CHECK(slow.sd_mv > 0.10);
+  CHECK(slow.sd_mv < 0.20);
+  CHECK(fast_wander.sd_mv > 0.10);
+  CHECK(fast_wander.sd_mv < 0.20);
+  CHECK(slow.tau_s > 500.0);
+  CHECK(slow.tau_s < 2000.0);
+  CHECK(fast_wander.tau_s > 150.0);
+  CHECK(fast_wander.tau_s < 600.0);
+  CHECK(fast_wander.tau_s < slow.tau_s);
 }
 
 // Effects stand out of the wander: 1000 bins (22 s) are enough.

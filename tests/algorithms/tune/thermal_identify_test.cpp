@@ -296,8 +296,11 @@ TEST_CASE("on a three-node casing outside the model's class, tune's loop settles
                   << tuned.settle_s << " s, in band " << tuned.in_band_c << " C; seed: settled at " << seed.settle_s
                   << " s, in band " << seed.in_band_c << " C");
   REQUIRE(tuned.settle_s >= 0.0);
-  CHECK(tuned.settle_s < 1800.0);  // within Fig. 26's 30 min at 16 C
-  CHECK(tuned.in_band_c <= 0.3);   // the seed's band
+  // Measured: settled at 834 s, 0.061 C in band (about one 1/16 C reading
+  // step). The bounds leave room for a changed noise draw, not for a loop
+  // that hunts over two steps or warms up a third slower.
+  CHECK(tuned.settle_s < 1200.0);
+  CHECK(tuned.in_band_c <= 0.1);
   CHECK((seed.settle_s < 0.0 || tuned.in_band_c < seed.in_band_c));
   CHECK((seed.settle_s < 0.0 || tuned.settle_s < seed.settle_s));
 }
