@@ -88,6 +88,23 @@ toml_value() {  # toml_value SECTION KEY
     insec && $1 == key && $2 == "=" { v = $3; gsub(/[",]/, "", v); print v; exit }' "$config"
 }
 fclk=$(toml_value devices.adc fclk_hz); fclk=${fclk:-384000}
+spi_hz=$(toml_value devices.adc spi_speed_hz); spi_hz=${spi_hz:-1000000}
+# What a read takes by itself after the DRDY edge: the hold-off (12 tCLK +
+# 30 ns, DOUT mode's start) and 24 SCLKs. Our latency counts from the edge to
+# the sample in hand, cyclictest's from the timer to the wake-up: the ratios
+# compare what is left of ours beyond the read's own time.
+read_us=$(awk -v f="$fclk" -v s="$spi_hz" 'BEGIN {printf "%.1f", (12 / f + 30e-9 + 24 / s) * 1e6}')
+# The run's configuration without the simulated reader's latency ([sim]
+# adc_*: a Raspberry Pi's typical figures, drawn on top of this host's own),
+# so that both tools measure this host. Its calibration file beside it.
+run_config=$tmp/bench-run.toml
+sed -E -e 's/^(adc_(wake_min|wake_max|stall_max|irq_delay_max|stamp_delay_max|spi_start_max|spi_return_max)_us) = .*/\1 = 0.0/' \
+    -e 's/^adc_stall_probability = .*/adc_stall_probability = 0.0/' "$config" > "$run_config"
+calibration_file=$(toml_value calibration file)
+case "$calibration_file" in
+  "" | /*) ;;  # none, or absolute: the copy names the same file
+  *) cp "$(dirname "$config")/$calibration_file" "$tmp/" ;;
+esac
 prio=$(toml_value realtime priority); prio=${prio:-80}
 rt_cpu=$(toml_value realtime cpu)  # pinned loop: pin cyclictest to the same CPU
 interval_us=$(awk -v f="$fclk" 'BEGIN {printf "%d", 384e6 / f + 0.5}')
@@ -107,6 +124,8 @@ if [ "$have_run" = 1 ]; then
     sched="SCHED_OTHER (SCHED_FIFO not permitted: both runs without it)"
   fi
   ratio() { awk -v a="$1" -v b="$2" 'BEGIN { if (b + 0 > 0 && a ~ /^[0-9.]+$/) printf "%.2f", a / b; else print "n/a" }'; }
+  # Ours less the read's own time (read_us), at least 0.
+  beyond() { awk -v a="$1" -v r="$read_us" 'BEGIN { if (a ~ /^[0-9.]+$/) printf "%.1f", (a - r > 0 ? a - r : 0); else print a }'; }
   # Rounds, each a pair of runs back to back (ours first in odd rounds,
   # cyclictest first in even ones, so neither always gets the quieter
   # minute): load from other processes drifts over minutes, so one pair can
@@ -115,7 +134,7 @@ if [ "$have_run" = 1 ]; then
   for r in $(seq 1 "$rounds"); do
     echo "=== loop latency round $r/$rounds: gyrotc run and cyclictest, ${duration} s each (${interval_us} us, $sched)"
     [ $((r % 2)) = 0 ] && cyclictest "${ct_args[@]}" >"$tmp/cyclictest_$r.txt" 2>&1
-    measure "run_$r" "$gyrotc" run --config "$config" --duration "$duration" --allow-non-rt \
+    measure "run_$r" "$gyrotc" run --config "$run_config" --duration "$duration" --allow-non-rt \
       --summary-json "$tmp/run_$r.json"
     [ $((r % 2)) = 1 ] && cyclictest "${ct_args[@]}" >"$tmp/cyclictest_$r.txt" 2>&1
     # p50/p99: upper edge of the 1 us histogram bin, as ours; beyond 10 ms: ">10000".
@@ -136,7 +155,7 @@ if [ "$have_run" = 1 ]; then
       def r: if type == "number" then (. + 0.5 | floor) else . end;
       "\(.samples) \(.latency_us.p50 | r) \(.latency_us.p99 | r) \(.latency_us.max | r) \(.overruns // 0) \(.missed_drdy // 0) \(.realtime // "?")"' \
       "$tmp/run_$r.json")
-    echo "$r|$our_n|$our_p50|$our_p99|$our_max|$our_over|$our_missed|$our_rt|$ct_n|$ct_p50|$ct_p99|$ct_max|$(ratio "$our_p50" "$ct_p50")|$(ratio "$our_p99" "$ct_p99")|$(ratio "$our_max" "$ct_max")" \
+    echo "$r|$our_n|$our_p50|$our_p99|$our_max|$our_over|$our_missed|$our_rt|$ct_n|$ct_p50|$ct_p99|$ct_max|$(ratio "$(beyond "$our_p50")" "$ct_p50")|$(ratio "$(beyond "$our_p99")" "$ct_p99")|$(ratio "$(beyond "$our_max")" "$ct_max")" \
       >>"$tmp/latency_rows.txt"
   done
   r_p99=$(cut -d'|' -f14 "$tmp/latency_rows.txt" | sort -g | awk '{v[NR] = $1} END {print v[int((NR + 1) / 2)]}')
@@ -216,7 +235,7 @@ mkdir -p "$(dirname "$out")"
   echo "| whole per-sample path (ADC read → compensation → rate DAC), slowest model | <= 200 ns | $steady_max ns | $(met "$steady_max" 200 '<=') |"
   echo "| the same with the model evaluated every sample (worst case: $worst_kind) | <= 200 ns | $worst_max ns | $(met "$worst_max" 200 '<=') |"
   if [ "$have_run" = 1 ]; then
-    echo "| loop latency p99, ours / cyclictest ($sched; median of $rounds rounds) | <= 1.5 | $r_p99 | $(met "$r_p99" 1.5 '<=') |"
+    echo "| loop latency p99, (ours - the read's ${read_us} us) / cyclictest ($sched; median of $rounds rounds) | <= 1.5 | $r_p99 | $(met "$r_p99" 1.5 '<=') |"
   else
     echo "| loop latency p99, ours / cyclictest | <= 1.5 | $latency_note | n/a |"
   fi
@@ -254,10 +273,13 @@ mkdir -p "$(dirname "$out")"
   echo "## Loop latency"
   echo
   if [ "$have_run" = 1 ]; then
-    echo "Wake-up latency (intended wake-up / DRDY edge to the loop running), period ${interval_us} us"
-    echo "(${rate_sps} SPS, $config), scheduler: $sched. $rounds rounds, each \`gyrotc run\` on"
-    echo "the simulated board and \`cyclictest ${ct_args[*]}\` back to back (${duration} s each; ours"
-    echo "first in odd rounds, cyclictest first in even ones)."
+    echo "Latency, period ${interval_us} us (${rate_sps} SPS, $config with the simulated reader's own"
+    echo "latency, its [sim] adc_* keys, set to 0: both tools measure this host), scheduler: $sched."
+    echo "$rounds rounds, each \`gyrotc run\` on the simulated board and \`cyclictest ${ct_args[*]}\`"
+    echo "back to back (${duration} s each; ours first in odd rounds, cyclictest first in even ones)."
+    echo "Ours runs from the DRDY edge to the sample in hand, which includes the read itself: the hold-off"
+    echo "to DOUT mode and 24 SCLKs, ${read_us} us; cyclictest's from the timer to the wake-up. The"
+    echo "ratios therefore compare ours less ${read_us} us with cyclictest's."
     echo "p50/p99: upper edge of the 1 us histogram bin (both tools); max exact. gyrotc counts an overrun"
     echo "for a loop pass that ends after the next conversion is due, a missed DRDY for a conversion"
     echo "skipped or a DRDY timeout. With other load on the machine, p99 and max of both tools are"
@@ -268,7 +290,7 @@ mkdir -p "$(dirname "$out")"
     awk -F'|' '{
       printf "| %s | gyrotc run | %s | %s | %s | %s | SCHED_FIFO %s, overruns %s, missed DRDY %s |\n", $1, $2, $3, $4, $5, $8, $6, $7
       printf "| %s | cyclictest | %s | %s | %s | %s | |\n", $1, $9, $10, $11, $12
-      printf "| %s | **ours / cyclictest** | | %s | %s | %s | |\n", $1, $13, $14, $15
+      printf "| %s | **(ours - read) / cyclictest** | | %s | %s | %s | |\n", $1, $13, $14, $15
     }' "$tmp/latency_rows.txt"
   else
     echo "Loop latency $latency_note."
