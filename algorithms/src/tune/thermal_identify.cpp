@@ -6,6 +6,7 @@
 #include <functional>
 #include <limits>
 #include <stdexcept>
+#include <span>
 #include <string>
 
 #include "gyrotc/algorithms/identify/residual_stats.hpp"
@@ -13,6 +14,60 @@
 
 namespace gyrotc::tune {
 namespace {
+
+// The Newey-West window: Andrews' (1991) AR(1) plug-in for the Bartlett
+// kernel, 1.1447 (alpha n)^(1/3), alpha = 4 rho^2 / ((1 - rho)^2 (1 + rho)^2)
+// with rho the residual's lag-1 autocorrelation; but at least twice the lag
+// at which the residual's autocorrelation has died out (below 0.05): the
+// DS18B20's steps are nearly white and hide a slow part (sensor noise with
+// its own time constant, what the model does not hold) from rho alone. At
+// most a quarter of the record.
+std::size_t hac_bandwidth(std::span<const double> residual, double rho) {
+  const std::size_t n = residual.size();
+  const double alpha = 4.0 * rho * rho / ((1.0 - rho) * (1.0 - rho) * (1.0 + rho) * (1.0 + rho));
+  double rows = 1.1447 * std::cbrt(alpha * static_cast<double>(n));
+  double mean = 0.0;
+  for (double r : residual) mean += r;
+  mean /= static_cast<double>(n);
+  double var = 0.0;
+  for (double r : residual) var += (r - mean) * (r - mean);
+  if (var > 0.0) {
+    for (std::size_t lag = 1; lag < n / 4; ++lag) {
+      double c = 0.0;
+      for (std::size_t t = lag; t < n; ++t) c += (residual[t] - mean) * (residual[t - lag] - mean);
+      if (c / var < 0.05) {
+        rows = std::max(rows, 2.0 * static_cast<double>(lag));
+        break;
+      }
+    }
+  }
+  return std::clamp<std::size_t>(static_cast<std::size_t>(std::ceil(rows)), 1, std::max<std::size_t>(1, n / 4));
+}
+
+// (J'J)^-1 S (J'J)^-1, S = Gamma_0 + sum_l w_l (Gamma_l + Gamma_l') over the
+// scores u_t = J_t r_t with Bartlett weights w_l = 1 - l / (L + 1). The
+// scores are first summed over blocks of about L / 32 rows (a long bandwidth
+// on 1 Hz rows would cost L n k^2), the bandwidth counted in blocks: the
+// same long-run covariance up to the within-block weights.
+Eigen::MatrixXd hac_covariance(const Eigen::MatrixXd& jacobian, const Eigen::VectorXd& residual,
+                               const Eigen::MatrixXd& inverse_normal, std::size_t bandwidth_rows) {
+  const Eigen::Index n = jacobian.rows();
+  const Eigen::Index k = jacobian.cols();
+  const Eigen::Index block = std::max<Eigen::Index>(1, static_cast<Eigen::Index>(bandwidth_rows) / 32);
+  const Eigen::Index blocks = (n + block - 1) / block;
+  Eigen::MatrixXd scores = Eigen::MatrixXd::Zero(blocks, k);
+  for (Eigen::Index t = 0; t < n; ++t) scores.row(t / block) += jacobian.row(t) * residual(t);
+  const Eigen::Index lags =
+      std::min<Eigen::Index>(blocks - 1, (static_cast<Eigen::Index>(bandwidth_rows) + block - 1) / block);
+  Eigen::MatrixXd s = scores.transpose() * scores;
+  for (Eigen::Index l = 1; l <= lags; ++l) {
+    const double w = 1.0 - static_cast<double>(l) / static_cast<double>(lags + 1);
+    const Eigen::MatrixXd gamma = scores.bottomRows(blocks - l).transpose() * scores.topRows(blocks - l);
+    s += w * (gamma + gamma.transpose());
+  }
+  const double dof = static_cast<double>(n) / std::max<double>(1.0, static_cast<double>(n - k));
+  return dof * inverse_normal * s * inverse_normal;
+}
 
 // Record requirements (the experiment takes about 2 h).
 constexpr double kMinDurationS = 1800.0;
@@ -24,7 +79,7 @@ constexpr double kMinPeltierTRatio = 3.0;
 // The DS18B20's 1/16 C step as noise: variance step^2 / 12.
 constexpr double fit_quantisation_var() { return 0.0625 * 0.0625 / 12.0; }
 // Levenberg-Marquardt runs from at most this many starting points.
-constexpr std::size_t kMaxRuns = 4;
+constexpr std::size_t kMaxRuns = 12;
 // Rail "none": a current no stage of this kind delivers.
 constexpr double kNoRailA = 50.0;
 
@@ -415,12 +470,17 @@ ThermalFit identify_thermal(const TuneRecord& record, double experiment_scale) {
   fit.effective_samples = identify::effective_sample_size(n, fit.lag1_autocorrelation);
   fit.ljung_box_p = identify::ljung_box_p(residual, 20);
 
-  // Covariance of theta: residual variance, inflated for autocorrelation.
-  const double dof = std::max(1.0, static_cast<double>(n) - static_cast<double>(k_params));
-  const double inflation = static_cast<double>(n) / fit.effective_samples;
+  // Covariance of theta: the sandwich (J'J)^-1 S (J'J)^-1 with S the
+  // Newey-West long-run covariance of the scores J_t r_t (hac_covariance).
+  // The residuals are correlated over minutes (the DS18B20's steps, sensor
+  // noise with its own time constant, what the model does not hold): the
+  // AR(1) inflation of the white-noise covariance this replaced was ~5x
+  // optimistic.
+  fit.bandwidth_rows = hac_bandwidth(residual, fit.lag1_autocorrelation);
   fit.covariance = Eigen::MatrixXd::Zero(kCount, kCount);
   fit.covariance.topLeftCorner(static_cast<Eigen::Index>(k_params), static_cast<Eigen::Index>(k_params)) =
-      sf.covariance_unscaled * (sf.sse / dof) * inflation;
+      hac_covariance(identify::model_jacobian(model, sf.theta, sf.beta, nullptr), sf.residual,
+                     sf.covariance_unscaled, fit.bandwidth_rows);
 
   auto sd = [&](std::size_t j) { return std::sqrt(std::max(0.0, fit.covariance(static_cast<Eigen::Index>(j),
                                                                                static_cast<Eigen::Index>(j)))); };

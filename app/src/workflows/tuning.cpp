@@ -232,6 +232,7 @@ nlohmann::json tune_json(const TuneResult& r) {
               {"r_squared", f.r_squared},
               {"lag1_autocorrelation", f.lag1_autocorrelation},
               {"effective_samples", f.effective_samples},
+              {"covariance_bandwidth_rows", f.bandwidth_rows},
               {"ljung_box_p", f.ljung_box_p},
               {"ambient_measured", f.ambient_measured},
               {"rail_reached", f.rail_reached}};
