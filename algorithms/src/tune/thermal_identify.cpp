@@ -89,9 +89,9 @@ enum Index : std::size_t {
   kLogRail, kCasing0, kShell0, kAmbient, kCount
 };
 
-std::string fmt(const char* format, double a, double b = 0.0, double c = 0.0) {
-  char buf[256];
-  std::snprintf(buf, sizeof buf, format, a, b, c);
+std::string fmt(const char* format, double a, double b = 0.0, double c = 0.0, double d = 0.0) {
+  char buf[320];
+  std::snprintf(buf, sizeof buf, format, a, b, c, d);
   return buf;
 }
 
@@ -536,6 +536,15 @@ ThermalFit identify_thermal(const TuneRecord& record, double experiment_scale) {
   if (!ambient_measured) fit.estimates.push_back(plain_estimate("ambient_c", "C", kAmbient, 5.0));
 
   const Estimate& peltier = fit.estimates.front();
+  if (!(peltier.value > kMinPeltierTRatio * peltier.std_error) && fit.rms_c > 2.0 * fit.quantisation_rms_c) {
+    // A fit far above the floor: the current's effect may be hidden by what
+    // the model cannot follow rather than absent; say both.
+    throw std::invalid_argument(fmt("the TEC current has no measurable effect on the casing temperature beyond what "
+                                    "the model cannot follow (Peltier term %.3g +/- %.3g; residual rms %.3f C, %.0fx "
+                                    "the DS18B20's quantisation): is the TEC connected, the casing sensor on the "
+                                    "casing, and did the experiment run undisturbed?",
+                                    peltier.value, peltier.std_error, fit.rms_c, fit.rms_c / fit.quantisation_rms_c));
+  }
   if (!(peltier.value > kMinPeltierTRatio * peltier.std_error)) {
     throw std::invalid_argument(fmt("the TEC current has no measurable effect on the casing temperature (Peltier "
                                     "term %.3g +/- %.3g): is the TEC connected and the casing sensor on the "
