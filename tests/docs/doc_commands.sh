@@ -62,6 +62,22 @@ option_line() {  # OPTION
   printf '^[[:space:]]*(-[[:alnum:]],[[:space:]]*)?%s([ ,=]|$)' "$1"
 }
 
+# Fails LINE for each --option among WORDS (up to a shell operator) that
+# HELP does not define; WHAT names the command in the message.
+check_options() {  # LINE WHAT HELP WORDS...
+  local line=$1 what=$2 help=$3 opt
+  shift 3
+  for opt in "$@"; do
+    case "$opt" in \&\&|\||\;|\>|\>\>) break ;; esac
+    opt=${opt#[}
+    opt=${opt%%]*}
+    opt=${opt%%=*}
+    case "$opt" in
+      --*) grep -qE -- "$(option_line "$opt")" <<< "$help" || fail "$line" "$what has no option $opt (not in its --help)" ;;
+    esac
+  done
+}
+
 # Checks one logical line (continuations joined) of a block.
 check_line() {  # LINE TEXT
   local line=$1 text=$2 words i w cmd exe
@@ -79,21 +95,7 @@ check_line() {  # LINE TEXT
           fail "$line" "$script: a syntax error: $(head -n 1 "$work/syntax.log")"
         elif grep -qE -- '-h *\| *--help|--help\)' "$source/$script"; then
           # A script with a --help: every option shown must be in it.
-          local script_help k sopt
-          script_help=$(help_of "$source/$script")
-          for ((k = i + 1; k < ${#words[@]}; ++k)); do
-            sopt=${words[k]}
-            case "$sopt" in \&\&|\||\;|\>|\>\>) break ;; esac
-            sopt=${sopt#[}
-            sopt=${sopt%%]*}
-            sopt=${sopt%%=*}
-            case "$sopt" in
-              --*)
-                grep -qE -- "$(option_line "$sopt")" <<< "$script_help" ||
-                  fail "$line" "$script has no option $sopt (not in its --help)"
-                ;;
-            esac
-          done
+          check_options "$line" "$script" "$(help_of "$source/$script")" "${words[@]:i+1}"
         fi
         ;;
     esac
@@ -115,20 +117,7 @@ check_line() {  # LINE TEXT
         fail "$line" "'${w} ${exe[*]:1}': no such command (its --help fails)"
         continue
       fi
-      local j opt
-      for ((j = i + 2; j < ${#words[@]}; ++j)); do
-        opt=${words[j]}
-        case "$opt" in \&\&|\||\;|\>|\>\>) break ;; esac
-        opt=${opt#[}
-        opt=${opt%%]*}
-        opt=${opt%%=*}
-        case "$opt" in
-          --*)
-            grep -qE -- "$(option_line "$opt")" <<< "$help" ||
-              fail "$line" "'${w} ${exe[*]:1}' has no option $opt (not in its --help)"
-            ;;
-        esac
-      done
+      check_options "$line" "'${w} ${exe[*]:1}'" "$help" "${words[@]:i+2}"
     fi
   done
 }
