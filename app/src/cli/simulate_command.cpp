@@ -481,7 +481,7 @@ void add_simulate_command(CLI::App& app) {
       ->capture_default_str();
   cmd->add_option("--adc-model", options->adc_model,
                   "transaction: each ADS1251 conversion handed over at its DRDY edge, the clock moved as the "
-                  "driver's read moves it (the same samples as bit here, where the reader is instant, ~5x faster); "
+                  "driver's read moves it (the same samples as bit here, where the reader is instant, ~3.5x faster); "
                   "bit: the ADS1251 driver over the bit-level chip simulator, every pin edge")
       ->check(CLI::IsMember({"transaction", "bit"}))
       ->capture_default_str();

@@ -52,7 +52,8 @@ struct ThermalFit {
   double quantisation_rms_c = 0.0625 / 3.4641016151377544;  // DS18B20 step / sqrt(12)
   double lag1_autocorrelation = 0.0;
   double effective_samples = 0.0;
-  // Rows of the Newey-West window of the covariance (Andrews' AR(1) rule).
+  // Rows of the Newey-West window of the covariance (Andrews' AR(1) rule,
+  // at least twice the lag where the residual's autocorrelation dies out).
   std::size_t bandwidth_rows = 0;
   double ljung_box_p = 0.0;
   bool rail_reached = false;   // commands the identified rail clipped

@@ -184,7 +184,7 @@ struct SimulationSetup {
   // forward) or a programme runs (it records the ambient), unless set here.
   std::optional<bool> ambient_sensor;
   // The rate ADC's model (hal::SimAdcModel): transaction gives the bit-level
-  // path's samples at a fifth of its cost, since this reader is instant.
+  // path's samples at under a third of its cost, since this reader is instant.
   hal::SimAdcModel adc_model = hal::SimAdcModel::transaction;
 };
 

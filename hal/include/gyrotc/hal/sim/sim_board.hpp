@@ -30,8 +30,8 @@ enum class SimAdcModel : std::uint8_t {
   // conversion's code handed over at its DRDY edge, the clock moved as the
   // driver's read of it moves it (to the edge, the hold-off, 24 SCLKs).
   // There the driver reads every conversion whole, so this is the bit-level
-  // path's result sample for sample (tests/hal/sim/sim_board_test.cpp) at a
-  // fifth of its cost. A conversion the clock was moved past unread is
+  // path's result sample for sample (tests/hal/sim/sim_board_test.cpp) at
+  // under a third of its cost. A conversion the clock was moved past unread is
   // converted and missed (bit_level may still read the last one if its DOUT
   // window is open); an injected DRDY stall times out, an SPI fault fails the
   // read, as there.
