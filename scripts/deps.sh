@@ -4,7 +4,8 @@
 # only when something is missing.
 #
 # Usage: scripts/deps.sh [native] [aarch64] [armhf] [bench] [vm]
-#   native   compiler, CMake, the libraries and test tools (default)
+#   native   compiler, CMake, the libraries and test tools (jq for the docs
+#            test's hostile-ADC run) (default)
 #   aarch64  cross compiler, qemu-user and the arm64 libraries (adds the dpkg
 #            architecture arm64 if it is missing, and says so first)
 #   armhf    the same for 32-bit ARM hard-float
@@ -41,7 +42,8 @@ for w in "${want[@]}"; do
              libtomlplusplus-dev nlohmann-json3-dev libbenchmark-dev
              libfuse3-dev  # the board emulator, gyrotc-emu (docs/EMULATOR.md)
              systemd  # systemd-analyze for tests/deploy
-             python3-prometheus-client) ;;  # its parser reads the daemon's metrics file in a test
+             python3-prometheus-client  # its parser reads the daemon's metrics file in a test
+             jq) ;;  # scripts/hostile_adc.sh, which the docs test runs
     aarch64 | armhf)
       if [ "$w" = aarch64 ]; then arch=arm64 triple=aarch64-linux-gnu; else arch=armhf triple=arm-linux-gnueabihf; fi
       need_arch+=("$arch")
