@@ -142,22 +142,25 @@ TEST_CASE("an injected stuck sensor freezes while the casing warms") {
 }
 
 TEST_CASE("an injected DRDY stall and SPI error make ADC reads fail") {
-  SimBoardOptions options;
-  options.adc_model = GENERATE(SimAdcModel::bit_level, SimAdcModel::transaction);
-  SimBoard sim{params_at(25.0), 1, options};
-  Board board = sim.board();
-  sim.inject_drdy_stall(true);
-  const auto stalled = board.adc.read(0.01);
-  REQUIRE_FALSE(stalled.ok());
-  CHECK(stalled.error().code() == ErrorCode::timeout);
-  CHECK(board.clock.now_s() == Approx(0.01));
-  sim.inject_drdy_stall(false);
-  sim.inject_spi_error(true);
-  const auto broken = board.adc.read(0.01);
-  REQUIRE_FALSE(broken.ok());
-  CHECK(broken.error().code() == ErrorCode::io);
-  sim.inject_spi_error(false);
-  CHECK(board.adc.read(0.01).ok());
+  for (const SimAdcModel model : {SimAdcModel::bit_level, SimAdcModel::transaction}) {
+    CAPTURE(static_cast<int>(model));
+    SimBoardOptions options;
+    options.adc_model = model;
+    SimBoard sim{params_at(25.0), 1, options};
+    Board board = sim.board();
+    sim.inject_drdy_stall(true);
+    const auto stalled = board.adc.read(0.01);
+    REQUIRE_FALSE(stalled.ok());
+    CHECK(stalled.error().code() == ErrorCode::timeout);
+    CHECK(board.clock.now_s() == Approx(0.01));
+    sim.inject_drdy_stall(false);
+    sim.inject_spi_error(true);
+    const auto broken = board.adc.read(0.01);
+    REQUIRE_FALSE(broken.ok());
+    CHECK(broken.error().code() == ErrorCode::io);
+    sim.inject_spi_error(false);
+    CHECK(board.adc.read(0.01).ok());
+  }
 }
 
 TEST_CASE("lockstep, instant reader: the transaction-level ADC gives the bit-level path's samples, clock and plant") {
