@@ -134,6 +134,16 @@ double long_run_variance_factor(std::span<const double> residual, std::size_t ba
   return std::max(1.0, factor);
 }
 
+std::size_t decorrelation_lag(std::span<const double> residual, double below, std::size_t max_lag) {
+  if (residual.size() < 3) return 0;
+  const Moments m = moments(residual);
+  if (m.var <= 0.0) return 0;
+  for (std::size_t lag = 1; lag < max_lag && lag < residual.size(); ++lag) {
+    if (autocorrelation(residual, m.mean, m.var, lag) < below) return lag;
+  }
+  return 0;
+}
+
 double lag1_autocorrelation(std::span<const double> residual) {
   const std::size_t n = residual.size();
   if (n < 3) return 0.0;

@@ -26,21 +26,8 @@ std::size_t hac_bandwidth(std::span<const double> residual, double rho) {
   const std::size_t n = residual.size();
   const double alpha = 4.0 * rho * rho / ((1.0 - rho) * (1.0 - rho) * (1.0 + rho) * (1.0 + rho));
   double rows = 1.1447 * std::cbrt(alpha * static_cast<double>(n));
-  double mean = 0.0;
-  for (double r : residual) mean += r;
-  mean /= static_cast<double>(n);
-  double var = 0.0;
-  for (double r : residual) var += (r - mean) * (r - mean);
-  if (var > 0.0) {
-    for (std::size_t lag = 1; lag < n / 4; ++lag) {
-      double c = 0.0;
-      for (std::size_t t = lag; t < n; ++t) c += (residual[t] - mean) * (residual[t - lag] - mean);
-      if (c / var < 0.05) {
-        rows = std::max(rows, 2.0 * static_cast<double>(lag));
-        break;
-      }
-    }
-  }
+  const std::size_t died_out = identify::decorrelation_lag(residual, 0.05, n / 4);
+  rows = std::max(rows, 2.0 * static_cast<double>(died_out));
   return std::clamp<std::size_t>(static_cast<std::size_t>(std::ceil(rows)), 1, std::max<std::size_t>(1, n / 4));
 }
 

@@ -23,6 +23,10 @@ double ljung_box_p(std::span<const double> residual, std::size_t lags);
 // (1994) rule floor(4 (n/100)^(2/9)).
 double long_run_variance_factor(std::span<const double> residual, std::size_t bandwidth = 0);
 
+// The first lag (1 .. max_lag - 1) at which the series' autocorrelation is
+// below `below`; 0 if none is (or the series is constant).
+std::size_t decorrelation_lag(std::span<const double> residual, double below, std::size_t max_lag);
+
 // Lag-1 autocorrelation of a residual series, clamped to [0, 0.99] (tune's
 // thermal fit reports it and inflates its covariance by it).
 double lag1_autocorrelation(std::span<const double> residual);
