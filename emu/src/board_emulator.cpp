@@ -213,7 +213,7 @@ void BoardEmulator::step_plant() {
   if (t_s > plant_.time_s()) plant_.advance(t_s - plant_.time_s());
   if (W1Bus* bus = bus_of(casing_id_)) bus->set_temperature_c(casing_id_, plant_.sensor_c());
   if (W1Bus* bus = ambient_id_.empty() ? nullptr : bus_of(ambient_id_)) {
-    bus->set_temperature_c(ambient_id_, plant_.ambient_c());
+    bus->set_temperature_c(ambient_id_, plant_.ambient_sensor_c());
   }
   set_sense_locked();
   // A consumer's bias request (es_sense_bias) moves gpio-sim's pull too: the

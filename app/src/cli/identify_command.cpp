@@ -82,7 +82,7 @@ id::Identification run_series(const CsvTable& table, const std::string& target, 
   }
   // With a base plant, the die lags the sensed casing as in that plant;
   // without one, the sensor temperature is taken as the gyro's.
-  if (!o.plant.empty()) options.base_die_tau_s = plant.die_capacity_j_per_k / plant.casing_die_w_per_k;
+  if (!o.plant.empty()) options.base_die_tau_s = plant.die_tau_s();
   Progress progress("identify");
   try {
     auto result = id::identify_series(record, gyro ? id::SeriesTarget::gyro_mv : id::SeriesTarget::sensor_c,

@@ -6,6 +6,8 @@
 #include <fstream>
 #include <sstream>
 #include <stdexcept>
+#include <tuple>
+#include <utility>
 #include <vector>
 
 #include "gyrotc/app/support/errors.hpp"
@@ -125,6 +127,141 @@ void read_zero_bias(const std::string& file, const toml::table& gyro, PlantParam
   }
 }
 
+std::string text_of(const std::string& file, const std::string& key, const toml::node& node) {
+  if (auto v = node.value<std::string>()) return *v;
+  throw InputError(where(file, node) + ": key '" + key + "' must be a string");
+}
+
+const toml::node& required(const std::string& file, const toml::table& table, const std::string& prefix,
+                           const char* key) {
+  if (const toml::node* node = table.get(key)) return *node;
+  throw InputError(where(file, table) + ": '" + prefix + "' needs the key '" + key + "'");
+}
+
+// A node named in the file: its index, or an error naming the line.
+int node_index(const std::string& file, const std::string& key, const toml::node& node,
+               const model::ThermalNetwork& net) {
+  const std::string name = text_of(file, key, node);
+  const int index = net.index_of(name);
+  if (index == -2) {
+    throw InputError(where(file, node) + ": key '" + key + "' names node '" + name +
+                     "', which [network.nodes] does not have");
+  }
+  return index;
+}
+
+// between = ["a", "b"]
+std::pair<int, int> between(const std::string& file, const std::string& prefix, const toml::table& table,
+                            const model::ThermalNetwork& net) {
+  const toml::node& node = required(file, table, prefix, "between");
+  const toml::array* pair = node.as_array();
+  if (pair == nullptr || pair->size() != 2) {
+    throw InputError(where(file, node) + ": key '" + prefix + ".between' must be two node names");
+  }
+  return {node_index(file, prefix + ".between", *pair->get(0), net),
+          node_index(file, prefix + ".between", *pair->get(1), net)};
+}
+
+model::NetworkSensor read_sensor(const std::string& file, const std::string& prefix, const toml::table& table,
+                                 const model::ThermalNetwork& net) {
+  reject_unknown(file, prefix + ".", table, {"node", "tau_s", "offset_c", "noise_c"});
+  model::NetworkSensor s;
+  s.node = node_index(file, prefix + ".node", required(file, table, prefix, "node"), net);
+  if (const toml::node* n = table.get("tau_s")) s.tau_s = number(file, prefix + ".tau_s", *n);
+  if (const toml::node* n = table.get("offset_c")) s.offset_c = number(file, prefix + ".offset_c", *n);
+  if (const toml::node* n = table.get("noise_c")) s.noise_c = number(file, prefix + ".noise_c", *n);
+  return s;
+}
+
+// [network]: the user's own lumped network (model/thermal_network.hpp).
+model::ThermalNetwork read_network(const std::string& file, const toml::table& table) {
+  reject_unknown(file, "network.", table, {"nodes", "links", "tec", "heat_w", "sensors", "gyro"});
+  model::ThermalNetwork net;
+  const toml::table& nodes = as_table(file, "network.nodes", required(file, table, "network", "nodes"));
+  for (const auto& [k, node] : nodes) {
+    const std::string name(k.str());
+    if (name == "ambient") {
+      throw InputError(where(file, node) + ": 'ambient' is the chamber, not a node: leave it out of [network.nodes]");
+    }
+    net.nodes.push_back({name, number(file, "network.nodes." + name, node), 0.0});
+  }
+  if (const toml::node* links = table.get("links")) {
+    const toml::array* list = links->as_array();
+    if (list == nullptr || !list->is_array_of_tables()) {
+      throw InputError(where(file, *links) + ": 'network.links' must be [[network.links]] tables");
+    }
+    for (const toml::node& item : *list) {
+      const toml::table& link = *item.as_table();
+      reject_unknown(file, "network.links.", link, {"between", "w_per_k"});
+      const auto [a, b] = between(file, "network.links", link, net);
+      const double g = number(file, "network.links.w_per_k", required(file, link, "network.links", "w_per_k"));
+      net.links.push_back({a, b, g});
+    }
+  }
+  const toml::table& tec = as_table(file, "network.tec", required(file, table, "network", "tec"));
+  reject_unknown(file, "network.tec.", tec, {"between"});
+  std::tie(net.tec_from, net.tec_to) = between(file, "network.tec", tec, net);
+  if (const toml::node* heat = table.get("heat_w")) {
+    for (const auto& [k, node] : as_table(file, "network.heat_w", *heat)) {
+      const std::string key = "network.heat_w." + std::string(k.str());
+      const int i = net.index_of(std::string(k.str()));
+      if (i < 0) throw InputError(where(file, node) + ": key '" + key + "' is not a node of [network.nodes]");
+      net.nodes[static_cast<std::size_t>(i)].heat_w = number(file, key, node);
+    }
+  }
+  const toml::table& sensors = as_table(file, "network.sensors", required(file, table, "network", "sensors"));
+  reject_unknown(file, "network.sensors.", sensors, {"casing", "ambient"});
+  net.casing_sensor = read_sensor(file, "network.sensors.casing",
+                                  as_table(file, "network.sensors.casing",
+                                           required(file, sensors, "network.sensors", "casing")),
+                                  net);
+  if (const toml::node* ambient = sensors.get("ambient")) {
+    net.ambient_sensor =
+        read_sensor(file, "network.sensors.ambient", as_table(file, "network.sensors.ambient", *ambient), net);
+  }
+  const toml::table& gyro = as_table(file, "network.gyro", required(file, table, "network", "gyro"));
+  reject_unknown(file, "network.gyro.", gyro, {"node"});
+  net.gyro_node = node_index(file, "network.gyro.node", required(file, gyro, "network.gyro", "node"), net);
+  try {
+    model::validate(net);
+  } catch (const std::invalid_argument& e) {
+    // Point at the node the complaint names, else at [network].
+    std::string at = where(file, table);
+    for (const auto& [k, node] : nodes) {
+      if (std::string(e.what()).find("'" + std::string(k.str()) + "'") != std::string::npos) at = where(file, node);
+    }
+    throw InputError(at + ": " + e.what());
+  }
+  return net;
+}
+
+template <typename Num>
+std::string format_network(const model::ThermalNetwork& net, const Num& num) {
+  auto quoted = [&](int node) {
+    std::string text = "\"";
+    text += net.name_of(node);
+    text += '"';
+    return text;
+  };
+  auto pair = [&](int a, int b) { return "between = [" + quoted(a) + ", " + quoted(b) + "]\n"; };
+  std::string out = "\n[network.nodes]\n";
+  for (const auto& node : net.nodes) out += "\"" + node.name + "\" = " + num(node.capacity_j_per_k) + "\n";
+  for (const auto& link : net.links) out += "\n[[network.links]]\n" + pair(link.a, link.b) + "w_per_k = " + num(link.w_per_k) + "\n";
+  out += "\n[network.tec]\n" + pair(net.tec_from, net.tec_to);
+  out += "\n[network.heat_w]\n";
+  for (const auto& node : net.nodes) {
+    if (node.heat_w != 0.0) out += "\"" + node.name + "\" = " + num(node.heat_w) + "\n";
+  }
+  auto sensor = [&](const char* which, const model::NetworkSensor& s) {
+    return std::string("\n[network.sensors.") + which + "]\nnode = " + quoted(s.node) + "\ntau_s = " + num(s.tau_s) +
+           "\noffset_c = " + num(s.offset_c) + "\nnoise_c = " + num(s.noise_c) + "\n";
+  };
+  out += sensor("casing", net.casing_sensor);
+  out += sensor("ambient", net.ambient_sensor);
+  out += "\n[network.gyro]\nnode = " + quoted(net.gyro_node) + "\n";
+  return out;
+}
+
 }  // namespace
 
 model::PlantParams parse_plant(std::string_view text, const std::string& name) {
@@ -136,7 +273,7 @@ model::PlantParams parse_plant(std::string_view text, const std::string& name) {
                      std::string(e.description()));
   }
   PlantParams params;
-  std::vector<std::string> top = {"format", "version", "effects"};
+  std::vector<std::string> top = {"format", "version", "effects", "network"};
   for (const auto& key : keys()) {
     bool seen = false;
     for (const auto& t : top) seen = seen || t == key.section;
@@ -147,13 +284,32 @@ model::PlantParams parse_plant(std::string_view text, const std::string& name) {
     if (f->value<std::string>() != std::string("gyrotc-plant"))
       throw InputError(where(name, *f) + ": key 'format' must be \"gyrotc-plant\"");
   }
+  std::int64_t version = 1;
   if (const toml::node* v = root.get("version")) {
-    if (v->value<std::int64_t>() != std::int64_t{1})
-      throw InputError(where(name, *v) + ": key 'version' must be 1");
+    version = v->value<std::int64_t>().value_or(0);
+    if (version != 1 && version != 2)
+      throw InputError(where(name, *v) + ": key 'version' must be 1 or 2 (2 for a [network] plant)");
+  }
+  const toml::node* network_node = root.get("network");
+  if (network_node != nullptr) {
+    if (version != 2) {
+      throw InputError(where(name, *network_node) + ": a [network] plant needs 'version = 2' at the top of the file");
+    }
+    if (const toml::node* thermal = root.get("thermal")) {
+      throw InputError(where(name, *thermal) +
+                       ": [thermal] sets the default three-node network; a [network] plant gives its own nodes and "
+                       "links instead");
+    }
+    if (const toml::table* sensors = root["sensors"].as_table(); sensors && sensors->contains("ds18b20_offset_c")) {
+      throw InputError(where(name, *sensors->get("ds18b20_offset_c")) +
+                       ": key 'sensors.ds18b20_offset_c' is for the default network; a [network] plant sets "
+                       "'network.sensors.casing.offset_c'");
+    }
+    params.network = read_network(name, as_table(name, "network", *network_node));
   }
   for (const auto& [section_key, section_node] : root) {
     const std::string section(section_key.str());
-    if (section == "format" || section == "version" || section == "effects") continue;
+    if (section == "format" || section == "version" || section == "effects" || section == "network") continue;
     const toml::table& table = as_table(name, section, section_node);
     std::vector<std::string> known;
     for (const auto& key : keys()) {
@@ -249,9 +405,12 @@ std::string format_plant(const model::PlantParams& params) {
     return s;
   };
   std::string out = "# gyrotc plant description (see app/include/gyrotc/app/formats/plant_file.hpp)\n";
-  out += "format = \"gyrotc-plant\"\nversion = 1\n";
+  out += std::string("format = \"gyrotc-plant\"\nversion = ") + (params.network ? "2" : "1") + "\n";
   std::string section;
   for (const auto& key : keys()) {
+    // A network plant's own tables replace the default network's keys.
+    if (params.network && (std::string(key.section) == "thermal" || key.field == &PlantParams::ds18b20_offset_c))
+      continue;
     if (section != key.section) {
       section = key.section;
       out += "\n[" + section + "]\n";
@@ -268,6 +427,7 @@ std::string format_plant(const model::PlantParams& params) {
       out += "zero_bias_mv = " + list(params.zero_bias.gyro_mv()) + "\n";
     }
   }
+  if (params.network) out += format_network(*params.network, num);
   const auto& e = params.effects;
   if (e.thermal_lag) out += "\n[effects.thermal_lag]\ntau_s = " + num(e.thermal_lag->tau_s) + "\n";
   if (e.rate_sensitivity)

@@ -126,7 +126,7 @@ void LockstepRunner::emit_record(double now) {
   row.time_s = now;
   row.ambient_c = profile_.ambient_c(now);
   row.sensor_c = sensor_c_;
-  row.casing_c = plant.casing_c();
+  row.casing_c = plant.controlled_c();
   row.die_c = plant.die_c();
   row.tec_v = plant.tec_voltage_v();
   row.tec_a = plant.tec_current_a();

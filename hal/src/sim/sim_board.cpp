@@ -43,7 +43,7 @@ SimBoard::SimBoard(const model::PlantParams& params, std::uint64_t seed, const S
       tec_dac_chip_("sim:ad5060-tec", params.dac_vref_v, this),
       opa548_chip_(this),
       casing_chip_(kCasingId, plant_.sensor_c(), options.realtime ? &sensor_sleep_clock_ : nullptr),
-      ambient_chip_(kAmbientId, plant_.ambient_c(), options.realtime ? &sensor_sleep_clock_ : nullptr),
+      ambient_chip_(kAmbientId, plant_.ambient_sensor_c(), options.realtime ? &sensor_sleep_clock_ : nullptr),
       adc_(adc_chip_.spi(), adc_chip_.drdy(), clock_, options.adc),
       checked_adc_(adc_, adc_chip_),
       transaction_adc_(*this),
@@ -158,7 +158,7 @@ void SimBoard::step_plant_to(double t_s) noexcept {
 
 void SimBoard::publish() noexcept {
   casing_chip_.set_temperature_c(plant_.sensor_c());
-  ambient_chip_.set_temperature_c(plant_.ambient_c());
+  ambient_chip_.set_temperature_c(plant_.ambient_sensor_c());
   opa548_chip_.set_thermal_shutdown(plant_.opa548_thermal_shutdown());
 }
 

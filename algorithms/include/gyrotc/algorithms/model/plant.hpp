@@ -1,10 +1,13 @@
 #pragma once
 
 #include <cstdint>
+#include <optional>
+#include <vector>
 
 #include "gyrotc/algorithms/model/effects.hpp"
 #include "gyrotc/algorithms/model/gyro_bias_curve.hpp"
 #include "gyrotc/algorithms/model/random.hpp"
+#include "gyrotc/algorithms/model/thermal_network.hpp"
 
 // The physical plant of the seed's temperature-controlled gyroscope (Section 6):
 // a chamber (ambient) around an outer shell, a Peltier TEC wall-embedded in that
@@ -117,8 +120,17 @@ struct PlantParams {
   // Named effects of the discrepancy workflow (off by default).
   Effects effects;
 
-  // Casing-to-ambient conductance with the TEC off (series shell path), W/K.
-  double casing_ambient_w_per_k() const noexcept;
+  // The user's own housing (thermal_network.hpp). When set it replaces the
+  // three-node network above: the shell/casing/die capacities and
+  // conductances, internal_power_w and ds18b20_offset_c are not used.
+  std::optional<ThermalNetwork> network;
+
+  // Conductance from the casing sensor's node to the ambient with the TEC
+  // off (its conductance K still conducts), W/K: the series shell path of the
+  // default network, the network's steady-state response otherwise.
+  double casing_ambient_w_per_k() const;
+  // The die's own time constant against the node it hangs on, s.
+  double die_tau_s() const noexcept;
 };
 
 // Throws std::invalid_argument naming the field when a parameter is not
@@ -148,11 +160,23 @@ class Plant {
   double time_s() const noexcept { return thermal_time_s_ + pending_s_; }
   double thermal_time_s() const noexcept { return thermal_time_s_; }
   double ambient_c() const noexcept { return ambient_c_; }
-  double shell_c() const noexcept { return shell_c_; }
+  // The TEC's first side (the shell of the default network).
+  double shell_c() const noexcept { return tec_from_c_; }
+  // The casing: the casing sensor's node for a network plant.
   double casing_c() const noexcept { return casing_c_; }
+  // The gyro die: the gyro's node for a network plant.
   double die_c() const noexcept { return die_c_; }
-  // What a perfect-resolution DS18B20 on the casing would read.
-  double sensor_c() const noexcept { return casing_c_ + params_.ds18b20_offset_c; }
+  // The temperature the loop controls, as a noiseless reading without lag
+  // would show it: the casing node for the default network; the casing
+  // sensor's node plus that sensor's offset for a network plant.
+  double controlled_c() const noexcept { return controlled_c_; }
+  // What a perfect-resolution DS18B20 on the casing would read (for a
+  // network plant: lagged, offset and with its noise).
+  double sensor_c() const noexcept { return sensor_c_; }
+  // What the ambient DS18B20 would read.
+  double ambient_sensor_c() const noexcept { return network_ ? ambient_sensor_c_ : ambient_c_; }
+  // Temperature of network node i (the default network: shell, casing, die).
+  double node_c(int i) const noexcept;
   // Actual TEC current (after the current limit, the rails and E/S).
   double tec_current_a() const noexcept { return tec_current_a_; }
   double tec_voltage_v() const noexcept;
@@ -180,6 +204,9 @@ class Plant {
 
  private:
   void step_thermal(double h_s) noexcept;
+  void step_default_network(double h_s, double tec_a) noexcept;
+  void step_network(double h_s, double tec_a) noexcept;
+  void update_sensors(double h_s) noexcept;
   void update_stage() noexcept;
   void update_bias() noexcept;
 
@@ -190,6 +217,23 @@ class Plant {
   double shell_c_;
   double casing_c_;
   double die_c_;
+  // Both sides of the TEC, the controlled temperature and the sensors'
+  // readings, for either kind of network.
+  double tec_from_c_;
+  double tec_to_c_;
+  double controlled_c_;
+  double sensor_c_;
+  double ambient_sensor_c_;
+  // A network plant's state: node temperatures, the sensors' lagged
+  // temperatures, their noise (its own stream, so that sensor noise leaves
+  // the gyro's noise unchanged) and the solver's workspace.
+  bool network_ = false;
+  std::vector<double> node_c_;
+  std::vector<double> matrix_;
+  std::vector<double> rhs_;
+  double casing_lag_c_;
+  double ambient_lag_c_;
+  Random sensor_random_;
   double thermal_time_s_ = 0.0;
   double pending_s_ = 0.0;
   double rate_dps_ = 0.0;

@@ -7,9 +7,11 @@
 
 namespace gyrotc::app {
 
-// Plant description file (TOML), version 1. Every key is optional (the
-// documented default of model::PlantParams applies); unknown keys are errors.
-//   format = "gyrotc-plant", version = 1
+// Plant description file (TOML), versions 1 and 2; docs/PLANT.md is the
+// reference. Every key is optional (the documented default of
+// model::PlantParams applies) unless a [network] needs it; unknown keys are
+// errors.
+//   format = "gyrotc-plant", version = 1 or 2 (2 with [network])
 //   [thermal]     shell_capacity_j_per_k, casing_capacity_j_per_k, die_capacity_j_per_k,
 //                 shell_ambient_w_per_k, shell_casing_leak_w_per_k, casing_die_w_per_k,
 //                 internal_power_w
@@ -24,6 +26,12 @@ namespace gyrotc::app {
 //                 the die temperature, a natural cubic spline through the points;
 //                 both or neither; default: the seed's Table 2)
 //   [integration] max_thermal_step_s, initial_temp_c
+//   [network]     version 2: the user's own lumped network, instead of [thermal]
+//                 and sensors.ds18b20_offset_c (model/thermal_network.hpp):
+//                 nodes.NAME = J/K; [[links]] between = [A, B], w_per_k;
+//                 tec.between = [FROM, TO]; heat_w.NAME = W;
+//                 sensors.casing / sensors.ambient {node, tau_s, offset_c, noise_c};
+//                 gyro.node
 //   [effects.<name>] the named effects (model/effects.hpp), on when present:
 //     thermal_lag {tau_s}, rate_sensitivity {k_mv_per_c_per_s},
 //     ramp_hysteresis {h_mv, r0_c_per_s}, warm_up {a_mv, tau_s},
@@ -33,7 +41,8 @@ model::PlantParams load_plant(const std::string& path);
 model::PlantParams parse_plant(std::string_view text, const std::string& name);
 
 // The file's text for params (every key written, the zero-bias curve when it
-// is not Table 2; numbers read back exactly).
+// is not Table 2, version 2 and [network] for a network plant; numbers read
+// back exactly).
 std::string format_plant(const model::PlantParams& params);
 // RuntimeFailure when the file cannot be written.
 void save_plant(const model::PlantParams& params, const std::string& path);

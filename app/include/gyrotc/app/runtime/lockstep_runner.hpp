@@ -43,7 +43,7 @@ struct RecordRow {
   double time_s = 0.0;
   double ambient_c = 0.0;
   double sensor_c = 0.0;   // last casing reading delivered to the controller
-  double casing_c = 0.0;   // true casing (plant)
+  double casing_c = 0.0;   // true casing (Plant::controlled_c: with a network plant its sensor's node + offset)
   double die_c = 0.0;
   double tec_v = 0.0;
   double tec_a = 0.0;               // applied by the plant (after its limits and rails)
@@ -154,7 +154,7 @@ struct SegmentSummary {
 struct RunSummary {
   double simulated_s = 0.0;
   double settle_s = -1.0;               // < 0: never settled
-  // True casing, after settling (from settle_s + the settle hold on), while
+  // True casing (RecordRow::casing_c), after settling (from settle_s + the settle hold on), while
   // the ambient is within [-20, 35] C (seed Section 6.2).
   double max_abs_error_c_in_band = 0.0;
   std::vector<SegmentSummary> segments;
