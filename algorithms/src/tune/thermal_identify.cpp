@@ -174,8 +174,12 @@ void check_record(const TuneRecord& r, double experiment_scale) {
 }
 
 // A first guess from the one-node heat balance on smoothed derivatives
-// (equation error): dT/dt = a I (T + 273.15) + b I^2 - g_ca (T - Ta) + p.
-std::vector<double> first_guess(const TuneRecord& r, const std::vector<double>& ambient, bool ambient_measured) {
+// (equation error): dT/dt = a I (T + 273.15) + b I^2 - g_ca (T - Ta) + p,
+// with the current shift rows earlier than the reading (a sensor that lags
+// its node by seconds sees the relay's steps that much later; the balance
+// on unshifted rows then mistakes the lag for a weak TEC).
+std::vector<double> first_guess(const TuneRecord& r, const std::vector<double>& ambient, bool ambient_measured,
+                                std::size_t shift) {
   const std::size_t n = r.time_s.size();
   constexpr std::size_t w = 10;
   double max_abs = 0.0;
@@ -190,14 +194,15 @@ std::vector<double> first_guess(const TuneRecord& r, const std::vector<double>& 
   };
   std::vector<Row> rows;
   rows.reserve(n);
-  for (std::size_t k = w; k + w < n; ++k) {
+  for (std::size_t k = w + shift; k + w < n; ++k) {
     Row row{};
     row.steady = true;
     for (std::size_t j = k - w; j < k + w; ++j) {
+      const double i = r.tec_a[j - shift];
       row.t += r.sensor_c[j];
-      row.i += r.tec_a[j];
-      row.i2 += r.tec_a[j] * r.tec_a[j];
-      row.steady = row.steady && r.tec_a[j] == r.tec_a[k];
+      row.i += i;
+      row.i2 += i * i;
+      row.steady = row.steady && i == r.tec_a[k - shift];
     }
     row.t /= 2.0 * w;
     row.i /= 2.0 * w;
@@ -265,8 +270,9 @@ std::vector<double> first_guess(const TuneRecord& r, const std::vector<double>& 
   th[kLogLoss] = std::log(g);
   th[kRestRise] = p / g;
   th[kAmbient] = ta0;
-  th[kDelay] = 1.5;
-  th[kLagShare] = 0.3;
+  const double shift_s = static_cast<double>(shift) * (r.time_s.back() - r.time_s.front()) / static_cast<double>(n - 1);
+  th[kDelay] = shift == 0 ? 1.5 : shift_s;
+  th[kLagShare] = shift == 0 ? 0.3 : 0.9;
   th[kCasing0] = r.sensor_c.front();
   th[kShell0] = 0.5 * (r.sensor_c.front() + ta0);
   th[kLogRail] = rail_parameter(std::clamp(rail, 0.05, kNoRailA), a, b);
@@ -300,7 +306,14 @@ ThermalFit identify_thermal(const TuneRecord& record, double experiment_scale) {
     }
   }
 
-  std::vector<double> start = first_guess(record, ambient, ambient_measured);
+  // First guesses with the current shifted by a ladder of sensor delays.
+  const double row_s = (record.time_s.back() - record.time_s.front()) / static_cast<double>(n - 1);
+  std::vector<std::vector<double>> guesses;
+  for (double delay_s : {0.0, 4.0, 8.0, 12.0, 20.0, 30.0, 45.0}) {
+    const auto shift = static_cast<std::size_t>(std::lround(delay_s / row_s));
+    if (delay_s > 0.0 && (shift == 0 || 2 * shift + 40 >= n)) continue;
+    guesses.push_back(first_guess(record, ambient, ambient_measured, shift));
+  }
   const auto [tmin, tmax] = std::minmax_element(record.sensor_c.begin(), record.sensor_c.end());
   double max_command = 0.0;
   for (double i : record.tec_a) max_command = std::max(max_command, std::fabs(i));
@@ -325,7 +338,9 @@ ThermalFit identify_thermal(const TuneRecord& record, double experiment_scale) {
   bound(kCasing0, record.sensor_c.front() - 5.0, record.sensor_c.front() + 5.0);
   bound(kShell0, record.sensor_c.front() - 20.0, record.sensor_c.front() + 20.0);
   if (!ambient_measured) bound(kAmbient, *tmin - 60.0, *tmax + 10.0);
-  for (std::size_t j = 0; j < k_params; ++j) start[j] = std::clamp(start[j], model.theta_lower[j], model.theta_upper[j]);
+  for (auto& guess : guesses) {
+    for (std::size_t j = 0; j < k_params; ++j) guess[j] = std::clamp(guess[j], model.theta_lower[j], model.theta_upper[j]);
+  }
 
   std::vector<double> scratch(n);
   std::vector<double> constant_ambient(n);
@@ -349,9 +364,11 @@ ThermalFit identify_thermal(const TuneRecord& record, double experiment_scale) {
   // Joule term and the rail (the shell at a typical guess) and the best
   // without a rail (the search cannot find a rail it starts far above, where
   // no command reaches it), then a grid over the shell and the sensor's delay
-  // from both. Levenberg-Marquardt runs from the best of these, from the best
-  // of the other kind, then from the next best (at most kMaxRuns), until a
-  // fit reaches the DS18B20's quantisation floor.
+  // from both (the delays scaled to a shifted guess's own). Levenberg-
+  // Marquardt runs from the best of these, from the best of the other kind,
+  // then from the next best (at most kMaxRuns), until a fit reaches the
+  // DS18B20's quantisation floor. That is one search; a record it leaves above
+  // the floor gets the sensor-lag stages below.
   Eigen::MatrixXd design;
   Eigen::VectorXd offset;
   auto sse_of = [&](const std::vector<double>& th) {
@@ -359,80 +376,134 @@ ThermalFit identify_thermal(const TuneRecord& record, double experiment_scale) {
     const double sse = (y - offset).squaredNorm();
     return std::isfinite(sse) ? sse : std::numeric_limits<double>::infinity();
   };
-  std::vector<double> base = start;
-  base.resize(k_params);
-  base[kLogShellRatio] = std::log(5.0);
-  base[kLogShellTau] = std::log(80.0);
-  const double rail_guess = model_of(start).rail_a;
-  const double rail_scale = rail_guess < 0.9 * kNoRailA ? rail_guess : std::max(0.05, max_command);
-  std::vector<double> best_rail = base;
-  std::vector<double> best_none = base;
-  double best_rail_sse = std::numeric_limits<double>::infinity();
-  double best_none_sse = std::numeric_limits<double>::infinity();
-  for (double joule : {0.4, 0.63, 1.0, 1.6, 2.5}) {
-    for (double rail : {0.6, 0.75, 0.9, 1.0, 1.15, 0.0}) {
-      std::vector<double> th = base;
-      th[kLogJoule] = start[kLogJoule] + std::log(joule);
-      th[kLogRail] = rail_parameter(rail > 0.0 ? rail * rail_scale : kNoRailA, std::exp(th[kLogPeltier]),
-                                    std::exp(th[kLogJoule]));
-      const double sse = sse_of(th);
-      if (rail > 0.0 && sse < best_rail_sse) {
-        best_rail_sse = sse;
-        best_rail = th;
-      }
-      if (rail == 0.0 && sse < best_none_sse) {
-        best_none_sse = sse;
-        best_none = th;
-      }
-    }
-  }
-  struct Start {
-    std::vector<double> theta;
-    double sse;
-    bool rail;
-  };
-  std::vector<Start> starts;
-  for (const std::vector<double>* th : {&best_rail, &best_none}) {
-    for (double ratio : {1.0, 5.0, 25.0}) {
-      for (double tau : {20.0, 80.0, 300.0}) {
-        for (double delay : {1.5, 10.0, 40.0}) {
-          std::vector<double> trial = *th;
-          trial[kLogShellRatio] = std::log(ratio);
-          trial[kLogShellTau] = std::log(tau);
-          trial[kDelay] = delay;
-          starts.push_back({trial, sse_of(trial), th == &best_rail});
+  // The search from one first guess: the grids and the Levenberg-Marquardt runs.
+  const double good_sse = 4.0 * fit_quantisation_var() * static_cast<double>(n);
+  auto search = [&](const std::vector<double>& start) {
+    std::vector<double> base = start;
+    base.resize(k_params);
+    base[kLogShellRatio] = std::log(5.0);
+    base[kLogShellTau] = std::log(80.0);
+    const double rail_guess = model_of(start).rail_a;
+    const double rail_scale = rail_guess < 0.9 * kNoRailA ? rail_guess : std::max(0.05, max_command);
+    std::vector<double> best_rail = base;
+    std::vector<double> best_none = base;
+    double best_rail_sse = std::numeric_limits<double>::infinity();
+    double best_none_sse = std::numeric_limits<double>::infinity();
+    for (double joule : {0.4, 0.63, 1.0, 1.6, 2.5}) {
+      for (double rail : {0.6, 0.75, 0.9, 1.0, 1.15, 0.0}) {
+        std::vector<double> th = base;
+        th[kLogJoule] = start[kLogJoule] + std::log(joule);
+        th[kLogRail] = rail_parameter(rail > 0.0 ? rail * rail_scale : kNoRailA, std::exp(th[kLogPeltier]),
+                                      std::exp(th[kLogJoule]));
+        const double sse = sse_of(th);
+        if (rail > 0.0 && sse < best_rail_sse) {
+          best_rail_sse = sse;
+          best_rail = th;
+        }
+        if (rail == 0.0 && sse < best_none_sse) {
+          best_none_sse = sse;
+          best_none = th;
         }
       }
     }
-  }
-  std::sort(starts.begin(), starts.end(), [](const Start& a, const Start& b) { return a.sse < b.sse; });
-  // The runs: the best start, the best of the other kind (with or without a
-  // rail), then the next best, until a fit reaches the quantisation floor.
-  std::vector<const Start*> runs{&starts.front()};
-  for (const Start& st : starts) {
-    if (st.rail != starts.front().rail) {
-      runs.push_back(&st);
-      break;
+    struct Start {
+      std::vector<double> theta;
+      double sse;
+      bool rail;
+    };
+    std::vector<Start> starts;
+    for (const std::vector<double>* th : {&best_rail, &best_none}) {
+      for (double ratio : {1.0, 5.0, 25.0}) {
+        for (double tau : {20.0, 80.0, 300.0}) {
+          for (double delay : {1.5, 10.0, 40.0}) {
+            std::vector<double> trial = *th;
+            trial[kLogShellRatio] = std::log(ratio);
+            trial[kLogShellTau] = std::log(tau);
+            trial[kDelay] = start[kDelay] > 1.5 ? delay * start[kDelay] / 10.0 : delay;
+            starts.push_back({trial, sse_of(trial), th == &best_rail});
+          }
+        }
+      }
     }
+    std::sort(starts.begin(), starts.end(), [](const Start& a, const Start& b) { return a.sse < b.sse; });
+    // The runs: the best start, the best of the other kind (with or without a
+    // rail), then the next best, until a fit reaches the quantisation floor.
+    std::vector<const Start*> runs{&starts.front()};
+    for (const Start& st : starts) {
+      if (st.rail != starts.front().rail) {
+        runs.push_back(&st);
+        break;
+      }
+    }
+    for (const Start& st : starts) {
+      if (runs.size() >= kMaxRuns) break;
+      if (std::find(runs.begin(), runs.end(), &st) == runs.end()) runs.push_back(&st);
+    }
+    identify::SeparableFit sf;
+    sf.sse = std::numeric_limits<double>::infinity();
+    // A fit at the DS18B20's quantisation floor needs no second opinion.
+    for (const Start* st : runs) {
+      if (sf.sse < good_sse) break;
+      model.theta_grid = {st->theta};
+      identify::SeparableFit f = identify::fit_separable(y, model);
+      if (f.sse < sf.sse) sf = std::move(f);
+    }
+    return sf;
+  };
+  // From the unshifted guess first; when that fit stays above the
+  // quantisation floor, from the shifted guess whose simulation follows the
+  // record best (a sensor lagging its node by seconds), keeping the better.
+  identify::SeparableFit sf = search(guesses.front());
+  if (sf.sse >= good_sse && guesses.size() > 1) {
+    std::size_t best = 1;
+    double best_sse = std::numeric_limits<double>::infinity();
+    for (std::size_t g = 1; g < guesses.size(); ++g) {
+      std::vector<double> th = guesses[g];
+      th.resize(k_params);
+      th[kLogShellRatio] = std::log(5.0);
+      th[kLogShellTau] = std::log(80.0);
+      const double sse = sse_of(th);
+      if (sse < best_sse) {
+        best_sse = sse;
+        best = g;
+      }
+    }
+    identify::SeparableFit shifted = search(guesses[best]);
+    if (shifted.sse < sf.sse) sf = std::move(shifted);
   }
-  for (const Start& st : starts) {
-    if (runs.size() >= kMaxRuns) break;
-    if (std::find(runs.begin(), runs.end(), &st) == runs.end()) runs.push_back(&st);
-  }
-  identify::SeparableFit sf;
-  sf.sse = std::numeric_limits<double>::infinity();
-  // A fit at the DS18B20's quantisation floor needs no second opinion.
-  const double good_sse = 4.0 * fit_quantisation_var() * static_cast<double>(n);
-  for (const Start* st : runs) {
-    if (sf.sse < good_sse) break;
-    model.theta_grid = {st->theta};
-    identify::SeparableFit f = identify::fit_separable(y, model);
-    if (f.sse < sf.sse) sf = std::move(f);
+  if (sf.sse >= good_sse) {
+    // Still above the floor: the heat balance of the best fit so far, its
+    // shell and sensor set afresh on a grid of shells and a ladder of sensor
+    // lags (a slow shell standing in for a lagging sensor is a basin the
+    // searches above can end in), Levenberg-Marquardt from the best four.
+    struct Restart {
+      std::vector<double> theta;
+      double sse;
+    };
+    std::vector<Restart> restarts;
+    for (double ratio : {1.0, 5.0, 25.0}) {
+      for (double tau : {20.0, 80.0, 300.0}) {
+        for (double lag_s : {3.0, 6.0, 10.0, 15.0, 22.0, 32.0, 45.0, 65.0}) {
+          std::vector<double> th = sf.theta;
+          th[kLogShellRatio] = std::log(ratio);
+          th[kLogShellTau] = std::log(tau);
+          th[kLagShare] = 0.9;
+          th[kDelay] = lag_s / 0.9;
+          restarts.push_back({th, sse_of(th)});
+        }
+      }
+    }
+    std::sort(restarts.begin(), restarts.end(), [](const Restart& a, const Restart& b) { return a.sse < b.sse; });
+    for (std::size_t k = 0; k < 4 && sf.sse >= good_sse; ++k) {
+      model.theta_grid = {restarts[k].theta};
+      identify::SeparableFit f = identify::fit_separable(y, model);
+      if (f.sse < sf.sse) sf = std::move(f);
+    }
   }
 
   ThermalFit fit;
   fit.theta = sf.theta;
-  fit.theta.resize(kCount, start[kAmbient]);
+  fit.theta.resize(kCount, guesses.front()[kAmbient]);
   fit.model = model_of(fit.theta);
   fit.initial = {fit.theta[kCasing0], fit.theta[kShell0]};
   fit.ambient_measured = ambient_measured;

@@ -46,6 +46,8 @@ struct Chain {
   app::RunSummary data;   // the controller tuned from the unit's record
   app::RunSummary paper;  // the seed's
   double minimum_s = 0.0;
+  double sensor_lag_s = 0.0;  // identified
+  double fit_rms_c = 0.0;
 };
 
 Chain run_chain(const model::PlantParams& plant, const std::string& name) {
@@ -64,6 +66,8 @@ Chain run_chain(const model::PlantParams& plant, const std::string& name) {
       app::load_controller_file(dir + "/controller.toml"), app::controller_preset(app::ControllerMode::paper, plant),
       dir + "/controller.toml");
   Chain c;
+  c.sensor_lag_s = t.fit.model.sensor_lag_s;
+  c.fit_rms_c = t.fit.rms_c;
   c.data = app::run_simulation(setup_for(plant, tuned), fig26).summary;
   c.paper = app::run_simulation(setup_for(plant, app::controller_preset(app::ControllerMode::paper, plant)), fig26).summary;
   c.minimum_s = app::plant_minimum_warm_up_s(plant, 16.0, 55.0 - 0.3);
@@ -98,6 +102,27 @@ TEST_CASE("chain on a TEC of 1.5x the thermal conductance: within 0.05 C, better
   model::PlantParams p;
   p.tec_conductance_w_per_k = 0.085 * 1.5;
   check_against_paper(run_chain(p, "tec_k1.5"));
+}
+
+TEST_CASE("chain on a casing sensor with its own 12 s lag, offset and noise: tune finds the lag, within 0.05 C") {
+  // The default network written as a network plant, the DS18B20 glued on
+  // with a 12 s lag, 0.15 C off and 0.02 C of noise per reading.
+  model::PlantParams p;
+  model::ThermalNetwork n;
+  n.nodes = {{"shell", p.shell_capacity_j_per_k, 0.0},
+             {"casing", p.casing_capacity_j_per_k, p.internal_power_w},
+             {"die", p.die_capacity_j_per_k, 0.0}};
+  n.links = {{model::kAmbientNode, 0, p.shell_ambient_w_per_k}, {0, 1, p.shell_casing_leak_w_per_k},
+             {1, 2, p.casing_die_w_per_k}};
+  n.tec_from = 0;
+  n.tec_to = 1;
+  n.casing_sensor = {1, 12.0, 0.15, 0.02};
+  n.gyro_node = 2;
+  p.network = n;
+  const Chain c = run_chain(p, "sensor_lag12");
+  CHECK(c.fit_rms_c < 0.03);  // the DS18B20's quantisation and the noise: 0.027 C
+  CHECK(c.sensor_lag_s == Approx(12.0).margin(1.5));
+  check_against_paper(c);
 }
 
 TEST_CASE("the experiment through the real-time runner's loop (lockstep) records what tune identifies the unit from") {
