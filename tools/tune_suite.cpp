@@ -1,18 +1,26 @@
-// The robustness suite of `gyrotc tune` (issue 23), kept out of the test
+// The robustness suite of `gyrotc tune` (issues 23, 35), kept out of the test
 // command: for every plant variant (each thermal, TEC and stage parameter of
-// model::PlantParams at 0.5x and 1.5x, and random combinations of all of them
-// within 0.5x..1.5x), the whole chain a user runs:
+// model::PlantParams at 0.5x and 1.5x, random combinations of all of them
+// within 0.5x..1.5x, and random network plants of 4 to 6 nodes whose
+// structure is not the tuner's: sensors on other nodes with their own lag,
+// offset and noise, heat sinks that warm, a configured current limit below
+// the stage's or a stage that saturates first), the whole chain a user runs:
 //   simulate --profile tune --plant P  ->  tune --data record.csv  ->
 //   simulate --profile fig26 --plant P --controller controller.toml
 // and the same fig26 run with the fixed `tuned` and the seed's `paper`
-// controllers. Per variant it also measures the plant's physical minimum
-// (16 C to the settle band at full heating current) and whether the plant can
-// hold 55 C at all over the fig26 programme (-30..45 C ambient) with its
-// current limit and rails. Writes the table and plots of docs/TUNING.md.
+// controllers. Per variant it also measures, from the plant's physics alone,
+// the physical minimum (16 C to the settle band at the full current the
+// configuration and the stage allow) and whether the plant can hold 55 C at
+// every ambient of the fig26 programme (-30..45 C) with that current and its
+// rails. Scoring (docs/TUNING.md): settled (0.3 C for 300 s) by 1500 s, so
+// that the seed's 30 min hold ends settled; the in-band error over a fixed
+// window, from 1800 s on while the ambient is within -20..35 C, whenever the
+// loop settled. Writes the table and plots of docs/TUNING.md.
 //
 //   tune_suite                         the full suite (a few minutes, Release)
 //   tune_suite --quick                 nominal and four variants
 //   tune_suite --random N --seed S     N random combinations (default 20, seed 1)
+//   tune_suite --network N             N random network plants (default 12)
 //   tune_suite --work DIR              records, plant and controller files (default /tmp/tune_suite)
 //   tune_suite --out DIR               plots (default docs/tuning)
 //   tune_suite --markdown FILE         the results section of FILE (between the
@@ -52,6 +60,15 @@ using model::PlantParams;
 constexpr double kSampleRateHz = 20.0;
 constexpr double kSetpointC = 55.0;
 constexpr double kRoomC = 16.0;  // seed Fig. 26: control starts at 16 C
+// Fig. 26, segment B: the chamber holds 16 C for 30 min, the casing reaches
+// the setpoint meanwhile; a loop is settled (0.3 C for 300 s) by the time the
+// chamber starts to move.
+constexpr double kSettleLimitS = 1800.0 - 300.0;
+// The in-band error's fixed window: from the end of segment B on, while the
+// ambient is within -20..35 C (seed Section 6.2).
+constexpr double kWindowStartS = 1800.0;
+constexpr double kBandLowC = -20.0;
+constexpr double kBandHighC = 35.0;
 
 struct Parameter {
   const char* group;
@@ -85,11 +102,28 @@ struct Variant {
   std::string name;
   PlantParams plant;
   bool random = false;
+  // The controller's configured current limit; 0: the stage's own.
+  double configured_limit_a = 0.0;
+  std::string description;  // a network variant's structure
 };
 
+// The current the loop can have: the configuration's limit within the stage's.
+double usable_limit_a(const Variant& v) {
+  return v.configured_limit_a > 0.0 ? std::min(v.configured_limit_a, v.plant.current_limit_a) : v.plant.current_limit_a;
+}
+
+app::ControllerConfig config_for(app::ControllerMode mode, const Variant& v) {
+  app::ControllerConfig c = app::controller_preset(mode, v.plant);
+  if (v.configured_limit_a > 0.0) {
+    c.pid.out_min = -v.configured_limit_a;
+    c.pid.out_max = v.configured_limit_a;
+  }
+  return c;
+}
+
 struct LoopFigures {
-  double settle_s = -1.0;
-  double error_c = -1.0;  // < 0: never settled
+  double settle_s = -1.0;  // < 0: never settled
+  double error_c = -1.0;   // over the fixed window; < 0: no run
   std::vector<app::RecordRow> rows;
 };
 
@@ -107,7 +141,8 @@ struct Outcome {
   std::string verdict;
 };
 
-// Steady casing temperature at an ambient with a commanded current.
+// Steady controlled temperature (the casing sensor's node plus its offset)
+// at an ambient with a commanded current.
 double steady_casing_c(PlantParams p, double ambient_c, double command_a) {
   p.initial_temp_c = kSetpointC;
   p.max_thermal_step_s = 20.0;
@@ -117,17 +152,17 @@ double steady_casing_c(PlantParams p, double ambient_c, double command_a) {
   plant.set_tec_drive_v(0.5 * p.dac_vref_v + command_a / p.gain_a_per_v);
   plant.advance(200000.0);
   plant.flush();
-  return plant.opa548_thermal_shutdown() ? -1e9 : plant.casing_c();
+  return plant.opa548_thermal_shutdown() ? -1e9 : plant.controlled_c();
 }
 
 // Can the plant hold the setpoint at every ambient of the fig26 programme
 // (-30 .. 45 C)? A plant that cannot hold it at -30 C (segment J) comes back
 // into the -20..35 C band (segment K) far below the setpoint whatever the
 // controller does.
-bool holds_band(const PlantParams& p, std::string& why) {
+bool holds_band(const PlantParams& p, double limit_a, std::string& why) {
   for (double ambient : {-30.0, 45.0}) {
-    const double hot = steady_casing_c(p, ambient, p.current_limit_a);
-    const double cold = steady_casing_c(p, ambient, -p.current_limit_a);
+    const double hot = steady_casing_c(p, ambient, limit_a);
+    const double cold = steady_casing_c(p, ambient, -limit_a);
     if (hot < kSetpointC) {
       char buf[160];
       std::snprintf(buf, sizeof buf, "at %.0f C ambient full heating holds only %.1f C", ambient, hot);
@@ -154,7 +189,12 @@ LoopFigures fig26(const PlantParams& plant, const app::ControllerConfig& control
   app::SimulationResult r = app::run_simulation(s, app::chamber_profile_by_name("fig26", GYROTC_DATA_DIR));
   LoopFigures f;
   f.settle_s = r.summary.settle_s;
-  f.error_c = r.summary.settle_s >= 0.0 ? r.summary.max_abs_error_c_in_band : -1.0;
+  f.error_c = 0.0;
+  for (const app::RecordRow& row : r.rows) {
+    if (row.time_s >= kWindowStartS && row.ambient_c >= kBandLowC && row.ambient_c <= kBandHighC) {
+      f.error_c = std::max(f.error_c, std::fabs(row.casing_c - kSetpointC));
+    }
+  }
   f.rows = std::move(r.rows);
   return f;
 }
@@ -164,12 +204,21 @@ Outcome run_variant(const Variant& v, const std::string& dir) {
   o.variant = v;
   std::filesystem::create_directories(dir);
   app::save_plant(v.plant, dir + "/plant.toml");
-  o.minimum_s = app::plant_minimum_warm_up_s(v.plant, kRoomC, kSetpointC - 0.3);
-  o.feasible = holds_band(v.plant, o.infeasible_why);
+  PlantParams usable = v.plant;
+  usable.current_limit_a = usable_limit_a(v);
+  o.minimum_s = app::plant_minimum_warm_up_s(usable, kRoomC, kSetpointC - 0.3);
+  o.feasible = holds_band(v.plant, usable.current_limit_a, o.infeasible_why);
+  if (o.feasible && !(o.minimum_s >= 0.0 && o.minimum_s <= kSettleLimitS)) {
+    o.feasible = false;
+    o.infeasible_why = o.minimum_s < 0.0 ? "never reaches the setpoint at full current"
+                                         : "needs " + std::to_string(static_cast<int>(o.minimum_s)) +
+                                               " s at full current to reach the band, over the 1500 s limit";
+  }
 
   // The identification experiment, recorded as the board records it.
   const std::string record_csv = dir + "/record.csv";
-  app::write_board_record_csv(app::simulate_tune_experiment(v.plant, kRoomC, kSampleRateHz).rows, record_csv);
+  app::write_board_record_csv(
+      app::simulate_tune_experiment(v.plant, kRoomC, kSampleRateHz, {}, v.configured_limit_a).rows, record_csv);
 
   // tune, from the file alone.
   const std::string controller_toml = dir + "/controller.toml";
@@ -187,22 +236,26 @@ Outcome run_variant(const Variant& v, const std::string& dir) {
   }
   if (o.tune_error.empty()) {
     const app::ControllerConfig c = app::apply_controller_file(
-        app::load_controller_file(controller_toml),
-        app::controller_preset(app::ControllerMode::paper, v.plant), controller_toml);
+        app::load_controller_file(controller_toml), config_for(app::ControllerMode::paper, v), controller_toml);
     o.data = fig26(v.plant, c);
   }
-  o.tuned = fig26(v.plant, app::controller_preset(app::ControllerMode::tuned, v.plant));
-  o.paper = fig26(v.plant, app::controller_preset(app::ControllerMode::paper, v.plant));
+  o.tuned = fig26(v.plant, config_for(app::ControllerMode::tuned, v));
+  o.paper = fig26(v.plant, config_for(app::ControllerMode::paper, v));
 
   // The issue's criteria, against the seed's controller on the same plant.
   std::vector<std::string> fails;
-  if (!o.tune_error.empty()) fails.push_back("tune refused the record");
-  if (o.data.error_c < 0.0) fails.push_back("never settled");
+  if (!o.tune_error.empty()) {
+    fails.push_back("tune refused the record");
+  } else if (o.data.settle_s < 0.0) {
+    fails.push_back("never settled");
+  } else if (o.data.settle_s > kSettleLimitS) {
+    fails.push_back("settled after 1500 s");
+  }
   if (o.data.error_c > 0.05) fails.push_back("error > 0.05 C");
   if (o.paper.settle_s >= 0.0 && (o.data.settle_s < 0.0 || o.data.settle_s > o.paper.settle_s)) {
     fails.push_back("slower than paper");
   }
-  if (o.paper.error_c >= 0.0 && o.data.error_c > o.paper.error_c) fails.push_back("errs more than paper");
+  if (o.tune_error.empty() && o.data.error_c > o.paper.error_c) fails.push_back("errs more than paper");
   o.pass = fails.empty();
   for (const auto& f : fails) o.verdict += (o.verdict.empty() ? "" : "; ") + f;
   if (o.verdict.empty()) o.verdict = "pass";
@@ -271,7 +324,7 @@ void plot_summary(const std::vector<Outcome>& outcomes, const std::string& path)
   f.title = "tune_suite: every variant (x = variant number of the table)";
   f.x.title = "variant";
   app::plot::Panel errors;
-  errors.y.title = "max |error| in band (C)";
+  errors.y.title = "max |error|, 1800 s on, ambient in band (C)";
   errors.y.scale = app::plot::Scale::log;
   app::plot::Panel settle;
   settle.y.title = "settle / physical minimum";
@@ -306,6 +359,7 @@ std::string table(const std::vector<Outcome>& outcomes, const std::string& plots
   std::ostringstream md;
   md << "| # | variant | feasible | t_min s | tune CPU s | fit rms C | data settle s | data err C | tuned settle s | "
         "tuned err C | paper settle s | paper err C | verdict |\n";
+  // err: the in-band error over the fixed window (from 1800 s, ambient -20..35 C).
   md << "|---|---|---|---|---|---|---|---|---|---|---|---|---|\n";
   for (std::size_t k = 0; k < outcomes.size(); ++k) {
     const Outcome& o = outcomes[k];
@@ -321,9 +375,101 @@ std::string table(const std::vector<Outcome>& outcomes, const std::string& plots
   return md.str();
 }
 
+// A random housing of 4 to 6 nodes (model/thermal_network.hpp) whose
+// structure is not the tuner's: the TEC's hot side on a heat sink that warms,
+// and one to three of a heated board, a mount between the casing and the die
+// and a lid that leaks to the ambient; the casing DS18B20 on any of them with
+// a lag of 5..30 s, an offset within the datasheet's +/-0.5 C and 0.005..0.03
+// C of noise per reading; and the current limits apart one way or the other.
+Variant network_variant(std::mt19937_64& rng, int k) {
+  using model::kAmbientNode;
+  auto u = [&](double lo, double hi) { return std::uniform_real_distribution<double>(lo, hi)(rng); };
+  auto coin = [&](double p) { return u(0.0, 1.0) < p; };
+  auto add = [](model::ThermalNetwork& n, const char* name, double c, double heat_w) {
+    n.nodes.push_back({name, c, heat_w});
+    return static_cast<int>(n.nodes.size()) - 1;
+  };
+  Variant v;
+  v.name = "network " + std::to_string(k);
+  PlantParams& p = v.plant;
+  model::ThermalNetwork n;
+  const int sink = add(n, "sink", u(40.0, 400.0), 0.0);
+  const int casing = add(n, "casing", u(150.0, 450.0), 0.0);
+  n.links.push_back({kAmbientNode, sink, u(0.3, 1.2)});
+  n.links.push_back({sink, casing, u(0.01, 0.04)});  // the leak beside the TEC
+  n.tec_from = sink;
+  n.tec_to = casing;
+  bool board = coin(0.6);
+  const bool mount = coin(0.5);
+  const bool lid = coin(0.4);
+  if (!board && !mount && !lid) board = true;
+  const double electronics_w = u(0.1, 0.5);
+  std::vector<int> sensor_nodes{casing};
+  char buf[200];
+  std::snprintf(buf, sizeof buf, "sink %.0f J/K at %.2f W/K, casing %.0f J/K", n.nodes[sink].capacity_j_per_k,
+                n.links[0].w_per_k, n.nodes[casing].capacity_j_per_k);
+  v.description = buf;
+  if (board) {
+    const int b = add(n, "board", u(20.0, 60.0), electronics_w);
+    n.links.push_back({casing, b, u(0.2, 1.0)});
+    sensor_nodes.push_back(b);
+    std::snprintf(buf, sizeof buf, ", board %.0f J/K with %.2f W at %.2f W/K", n.nodes[b].capacity_j_per_k,
+                  electronics_w, n.links.back().w_per_k);
+    v.description += buf;
+  } else {
+    n.nodes[casing].heat_w = electronics_w;
+  }
+  int die_parent = casing;
+  if (mount) {
+    die_parent = add(n, "mount", u(5.0, 25.0), 0.0);
+    n.links.push_back({casing, die_parent, u(0.1, 0.5)});
+    sensor_nodes.push_back(die_parent);
+    std::snprintf(buf, sizeof buf, ", mount %.0f J/K at %.2f W/K", n.nodes[die_parent].capacity_j_per_k,
+                  n.links.back().w_per_k);
+    v.description += buf;
+  }
+  if (lid) {
+    const int l = add(n, "lid", u(20.0, 80.0), 0.0);
+    n.links.push_back({casing, l, u(0.3, 1.5)});
+    n.links.push_back({kAmbientNode, l, u(0.005, 0.03)});
+    sensor_nodes.push_back(l);
+    std::snprintf(buf, sizeof buf, ", lid %.0f J/K (%.3f W/K to the ambient)", n.nodes[l].capacity_j_per_k,
+                  n.links.back().w_per_k);
+    v.description += buf;
+  }
+  const int die = add(n, "die", u(1.0, 2.5), 0.0);
+  n.links.push_back({die_parent, die, u(0.02, 0.08)});
+  n.gyro_node = die;
+  const auto pick = static_cast<std::size_t>(u(0.0, static_cast<double>(sensor_nodes.size()) - 1e-9));
+  n.casing_sensor = {sensor_nodes[pick], u(5.0, 30.0), u(-0.5, 0.5), u(0.005, 0.03)};
+  n.ambient_sensor = coin(0.5) ? model::NetworkSensor{sink, u(0.0, 30.0), u(-0.5, 0.5), u(0.005, 0.03)}
+                               : model::NetworkSensor{kAmbientNode, 0.0, u(-0.5, 0.5), u(0.005, 0.03)};
+  std::snprintf(buf, sizeof buf, "; casing sensor on %s: lag %.0f s, offset %+.2f C, noise %.3f C; ambient sensor on %s",
+                n.name_of(n.casing_sensor.node).c_str(), n.casing_sensor.tau_s, n.casing_sensor.offset_c,
+                n.casing_sensor.noise_c, n.name_of(n.ambient_sensor.node).c_str());
+  v.description += buf;
+  p.tec_seebeck_v_per_k *= u(0.8, 1.2);
+  p.tec_resistance_ohm *= u(0.8, 1.2);
+  p.tec_conductance_w_per_k *= u(0.8, 1.2);
+  const double limits = u(0.0, 1.0);
+  const double configured_a = p.current_limit_a;
+  if (limits < 1.0 / 3.0) {
+    v.configured_limit_a = configured_a * u(0.6, 0.9);  // configured below the stage
+  } else if (limits < 2.0 / 3.0) {
+    v.configured_limit_a = configured_a;
+    p.current_limit_a *= u(0.6, 0.9);  // the stage saturates first
+  }
+  std::snprintf(buf, sizeof buf, "; limit configured %.2f A, stage %.2f A",
+                v.configured_limit_a > 0.0 ? v.configured_limit_a : p.current_limit_a, p.current_limit_a);
+  v.description += buf;
+  p.network = n;
+  return v;
+}
+
 struct Options {
   bool quick = false;
   int random = 20;
+  int network = 12;
   unsigned seed = 1;
   std::string work = "/tmp/tune_suite";
   std::string out = std::string(GYROTC_DATA_DIR) + "/../docs/tuning";
@@ -332,7 +478,9 @@ struct Options {
 
 std::vector<Variant> variants(const Options& o) {
   std::vector<Variant> out;
-  out.push_back({"nominal", PlantParams{}, false});
+  Variant nominal;
+  nominal.name = "nominal";
+  out.push_back(nominal);
   for (const auto& q : parameters()) {
     for (double f : {0.5, 1.5}) {
       if (o.quick && !(std::strcmp(q.name, "casing_capacity_j_per_k") == 0 ||
@@ -361,6 +509,8 @@ std::vector<Variant> variants(const Options& o) {
     v.name = "random " + std::to_string(k + 1);
     out.push_back(v);
   }
+  std::mt19937_64 network_rng(o.seed + 1000);
+  for (int k = 0; k < (o.quick ? 2 : o.network); ++k) out.push_back(network_variant(network_rng, k + 1));
   return out;
 }
 
@@ -386,7 +536,7 @@ int run(const Options& opt) {
   for (std::size_t k = 0; k < outcomes.size(); ++k) {
     const std::string& n = outcomes[k].variant.name;
     if (n == "nominal" || n == "casing_capacity_j_per_k x0.5" || n == "conductance_w_per_k x1.5" ||
-        n == "shell_ambient_w_per_k x1.5") {
+        n == "shell_ambient_w_per_k x1.5" || n == "network 1") {
       std::string slug = n;
       for (char& c : slug) {
         if (!std::isalnum(static_cast<unsigned char>(c)) && c != '.') c = '_';
@@ -410,7 +560,8 @@ int run(const Options& opt) {
   const Outcome& nominal = outcomes.front();
   std::ostringstream md;
   md << "<!-- tune_suite:begin (written by tools/tune_suite; do not edit by hand) -->\n";
-  md << "Run: `tune_suite" << (opt.quick ? " --quick" : "") << " --random " << opt.random << " --seed " << opt.seed
+  md << "Run: `tune_suite" << (opt.quick ? " --quick" : "") << " --random " << opt.random << " --network "
+     << opt.network << " --seed " << opt.seed
      << "`, " << outcomes.size() << " variants, "
      << num(std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(), "%.0f") << " s.\n\n";
   md << "- Nominal plant: physical minimum " << num(nominal.minimum_s, "%.1f") << " s; tuned from data settles in "
@@ -419,7 +570,17 @@ int run(const Options& opt) {
      << " % above it), in-band error " << num(nominal.data.error_c, "%.3f") << " C.\n";
   md << "- " << passed_feasible << " of " << feasible << " feasible variants pass every criterion; "
      << passed - passed_feasible << " of " << outcomes.size() - feasible
-     << " infeasible ones (the plant cannot hold 55 C at every ambient of fig26, -30..45 C) pass too.\n";
+     << " infeasible ones (the plant cannot hold 55 C at every ambient of fig26, -30..45 C, or cannot reach the band "
+        "by 1500 s at full current) pass too.\n";
+  std::size_t networks = 0, networks_feasible = 0, networks_passed = 0;
+  for (const auto& o : outcomes) {
+    if (o.variant.description.empty()) continue;
+    ++networks;
+    networks_feasible += o.feasible ? 1 : 0;
+    networks_passed += o.pass && o.feasible ? 1 : 0;
+  }
+  md << "- Network plants: " << networks_passed << " of " << networks_feasible << " feasible ones pass (" << networks
+     << " in all).\n";
   md << "- Largest in-band error of the tuned-from-data loop on a feasible variant: " << num(worst_error, "%.3f")
      << " C. Slowest `tune` (identify + design, CPU time, Release): " << num(worst_tune_s, "%.2f") << " s.\n\n";
   md << table(outcomes, opt.out);
@@ -427,10 +588,15 @@ int run(const Options& opt) {
   for (std::size_t k = 0; k < outcomes.size(); ++k) {
     if (outcomes[k].variant.random) md << "- " << k + 1 << ": " << factors_of(outcomes[k].variant.plant) << "\n";
   }
+  md << "\nThe network plants (their own structure; `casing` is the TEC's second side):\n\n";
+  for (std::size_t k = 0; k < outcomes.size(); ++k) {
+    if (!outcomes[k].variant.description.empty()) md << "- " << k + 1 << ": " << outcomes[k].variant.description << "\n";
+  }
   md << "\n![every variant](tuning/summary.svg)\n\n";
   md << "![nominal](tuning/fig26_nominal.svg)\n![casing capacity x0.5](tuning/fig26_casing_capacity_j_per_k_x0.5.svg)\n"
         "![TEC conductance x1.5](tuning/fig26_conductance_w_per_k_x1.5.svg)\n"
-        "![shell to ambient x1.5](tuning/fig26_shell_ambient_w_per_k_x1.5.svg)\n";
+        "![shell to ambient x1.5](tuning/fig26_shell_ambient_w_per_k_x1.5.svg)\n"
+        "![network 1](tuning/fig26_network_1.svg)\n";
   md << "<!-- tune_suite:end -->\n";
 
   std::string doc;
@@ -470,6 +636,8 @@ int main(int argc, char** argv) {
       o.quick = true;
     } else if (a == "--random") {
       o.random = std::atoi(value("--random").c_str());
+    } else if (a == "--network") {
+      o.network = std::atoi(value("--network").c_str());
     } else if (a == "--seed") {
       o.seed = static_cast<unsigned>(std::strtoul(value("--seed").c_str(), nullptr, 10));
     } else if (a == "--work") {
@@ -479,7 +647,9 @@ int main(int argc, char** argv) {
     } else if (a == "--markdown") {
       o.markdown = value("--markdown");
     } else {
-      std::fprintf(stderr, "usage: tune_suite [--quick] [--random N] [--seed S] [--work DIR] [--out DIR] [--markdown FILE]\n");
+      std::fprintf(stderr,
+                   "usage: tune_suite [--quick] [--random N] [--network N] [--seed S] [--work DIR] [--out DIR] "
+                   "[--markdown FILE]\n");
       return 2;
     }
   }

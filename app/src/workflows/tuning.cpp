@@ -159,11 +159,15 @@ TuneResult tune_from_record(const TuneInput& input) {
 }
 
 SimulationResult simulate_tune_experiment(const model::PlantParams& plant, double room_c, double sample_rate_hz,
-                                          const tune::ExperimentPlan& plan) {
+                                          const tune::ExperimentPlan& plan, double configured_limit_a) {
   static const fit::BiasModel calibration = fit::BiasModel::paper_reference();
   SimulationSetup s;
   s.plant = plant;
   s.controller = controller_preset(ControllerMode::paper, plant);  // its limits and fail-safes; the PID idles
+  if (configured_limit_a > 0.0) {
+    s.controller.pid.out_min = -configured_limit_a;
+    s.controller.pid.out_max = configured_limit_a;
+  }
   s.calibration = &calibration;
   s.sample_rate_hz = sample_rate_hz;
   tune::IdentificationExperiment experiment(plan);

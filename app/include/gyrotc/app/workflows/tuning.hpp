@@ -52,11 +52,13 @@ model::ChamberProfile tune_experiment_room(double room_c, const tune::Experiment
 
 // The identification experiment on the simulated board in lockstep, as
 // `gyrotc simulate --profile tune` runs it: every node and the room at
-// room_c, the TEC limited to the plant's current limit, an ambient DS18B20,
-// the seed's reference calibration; ends with the experiment.
-// write_board_record_csv(rows) is the record `gyrotc tune` reads.
+// room_c, the TEC limited to the plant's current limit (or to
+// configured_limit_a when it is > 0: a board configured below or above what
+// its stage delivers), an ambient DS18B20, the seed's reference calibration;
+// ends with the experiment. write_board_record_csv(rows) is the record
+// `gyrotc tune` reads.
 SimulationResult simulate_tune_experiment(const model::PlantParams& plant, double room_c, double sample_rate_hz,
-                                          const tune::ExperimentPlan& plan = {});
+                                          const tune::ExperimentPlan& plan = {}, double configured_limit_a = 0.0);
 
 // The plant's physical minimum warm-up (issue 23): every node at from_c, the
 // TEC commanded at the stage's current limit (the plant clips it at its
