@@ -132,10 +132,12 @@ std::string text_of(const std::string& file, const std::string& key, const toml:
   throw InputError(where(file, node) + ": key '" + key + "' must be a string");
 }
 
-const toml::node& required(const std::string& file, const toml::table& table, const std::string& prefix,
+// prefix by value: a reference parameter bound to a temporary string makes
+// every reference to the result "possibly dangling" for GCC 13+.
+const toml::node& required(const std::string& file, const toml::table& table, std::string_view prefix,
                            const char* key) {
   if (const toml::node* node = table.get(key)) return *node;
-  throw InputError(where(file, table) + ": '" + prefix + "' needs the key '" + key + "'");
+  throw InputError(where(file, table) + ": '" + std::string(prefix) + "' needs the key '" + key + "'");
 }
 
 // A node named in the file: its index, or an error naming the line.
