@@ -244,7 +244,7 @@ if [ "$emu_started" = 1 ]; then
   tune_status=$?
   if [ "$rec_status" -eq 0 ] && [ "$tune_status" -eq 0 ]; then
     # The configuration takes the controller file in place of [control]'s own gains.
-    sed -i -E '/^(setpoint_c|kp|ki|kd|period_s|xi_c|feed_forward_a_per_c|setpoint_ramp_c_per_s) *=/d' "$CONF"
+    sed -i -E '/^(setpoint_c|kp|ki|kd|period_s|xi_c|feed_forward_a_per_c|feed_forward_lag_s|setpoint_ramp_c_per_s) *=/d' "$CONF"
     sed -i 's/^\[control\]$/[control]\ncontroller_file = "controller.toml"/' "$CONF"
   fi
 fi

@@ -21,6 +21,15 @@ double feed_forward_a(double a_per_c, double setpoint_c, double ambient_c) noexc
   return std::isfinite(ambient_c) ? a_per_c * (setpoint_c - ambient_c) : 0.0;
 }
 
+void AmbientLag::update(double reading_c, double dt_s, double lag_s) noexcept {
+  if (!std::isfinite(reading_c)) return;
+  if (!std::isfinite(value_c_) || !(lag_s > 0.0)) {
+    value_c_ = reading_c;
+    return;
+  }
+  value_c_ += -std::expm1(-std::max(dt_s, 0.0) / lag_s) * (reading_c - value_c_);
+}
+
 double pid_current_a(IncrementalPid& pid, double casing_c, double setpoint_c, double ff_a,
                      const CurrentRange& range) noexcept {
   const double u = pid.step(casing_c, setpoint_c, range.min_a - ff_a, range.max_a - ff_a);

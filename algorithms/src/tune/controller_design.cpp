@@ -116,7 +116,7 @@ LoopMargins loop_margins(const ThermalModel& m, const DesignSpec& spec, const Pi
 }
 
 LoopRun simulate_loop(const ThermalModel& m, const DesignSpec& spec, const PidGains& k, double ff_a_per_c,
-                      const control::RailLimit& rail) {
+                      double ff_lag_s, const control::RailLimit& rail) {
   control::PidParams params = control::PidParams::from_gains(k.kp, k.ki, k.kd, spec.period_s);
   params.xi_c = k.xi_c;
   params.out_min = spec.min_a;
@@ -151,6 +151,8 @@ LoopRun simulate_loop(const ThermalModel& m, const DesignSpec& spec, const PidGa
     return spec.rated_high_c;
   };
   double ambient_reading = quantise(spec.room_c, spec.sensor_step_c);
+  control::AmbientLag ff_ambient;
+  ff_ambient.update(ambient_reading, 0.0, ff_lag_s);
   double command = 0.0;
   double next_pid = spec.period_s;
   double next_ambient = 0.0;
@@ -163,6 +165,7 @@ LoopRun simulate_loop(const ThermalModel& m, const DesignSpec& spec, const PidGa
     if (programme_start < kInf && t - programme_start > down_s + across_s + 2.0 * spec.hold_s) break;
     if (spec.ambient_sensor && t >= next_ambient) {
       ambient_reading = quantise(ambient, spec.sensor_step_c);
+      ff_ambient.update(ambient_reading, spec.ambient_period_s, ff_lag_s);
       next_ambient += spec.ambient_period_s;
     }
     if (t >= next_pid - 1e-9) {
@@ -175,8 +178,9 @@ LoopRun simulate_loop(const ThermalModel& m, const DesignSpec& spec, const PidGa
       const double reading = quantise(newer + frac * (older - newer), spec.sensor_step_c);
       const double amb = spec.ambient_sensor ? ambient_reading : kNan;
       const control::CurrentRange range = control::applied_range(spec.min_a, spec.max_a, rail, reading, amb);
+      const double ff_amb = spec.ambient_sensor ? ff_ambient.value_c() : kNan;
       command = control::pid_current_a(pid, reading, spec.setpoint_c,
-                                       control::feed_forward_a(ff_a_per_c, spec.setpoint_c, amb), range);
+                                       control::feed_forward_a(ff_a_per_c, spec.setpoint_c, ff_amb), range);
       next_pid += spec.period_s;
     }
     x = step(m, x, command, ambient, dt);
@@ -279,6 +283,11 @@ ControllerDesign design_controller(const ThermalModel& m, const DesignSpec& requ
       sxx += xv * xv;
     }
     d.feed_forward_a_per_c = sxx > 0.0 ? sxy / sxx : 0.0;
+    // A change of the ambient reaches the held casing through the shell:
+    // the feed-forward answers the ambient as the shell does, when the
+    // record has pinned the shell down (a shell it has not is a guess, and a
+    // guessed lag of an hour would hold the feed-forward back all programme).
+    d.feed_forward_lag_s = spec.shell_known ? m.shell_tau_s : 0.0;
   }
   // Stuck-sensor threshold above any steady holding current of the rated range.
   double max_hold = 0.0;
@@ -330,7 +339,7 @@ ControllerDesign design_controller(const ThermalModel& m, const DesignSpec& requ
         }
         if (!robust) continue;
         ++d.robust_candidates;
-        scored.push_back({k, simulate_loop(m, spec, k, d.feed_forward_a_per_c, d.rail)});
+        scored.push_back({k, simulate_loop(m, spec, k, d.feed_forward_a_per_c, d.feed_forward_lag_s, d.rail)});
       }
     }
   }
@@ -356,7 +365,7 @@ ControllerDesign design_controller(const ThermalModel& m, const DesignSpec& requ
   for (double xi : {0.25, 0.5, 2.0, 4.0}) {
     PidGains k = pick->gains;
     k.xi_c = xi;
-    const LoopRun run = simulate_loop(m, spec, k, d.feed_forward_a_per_c, d.rail);
+    const LoopRun run = simulate_loop(m, spec, k, d.feed_forward_a_per_c, d.feed_forward_lag_s, d.rail);
     if (run.settle_s >= 0.0 && run.settle_s < d.predicted.settle_s &&
         run.max_error_in_band_c <= d.predicted.max_error_in_band_c + 0.003) {
       d.gains = k;

@@ -80,9 +80,11 @@ void print_text(const nlohmann::json& j, const std::string& source, const std::s
                 num(p["std_error"], "%.2g").c_str(), p["unit"].get<std::string>().c_str());
   }
   const auto& d = j["design"];
-  std::printf("  controller: Kp %.4g, KI %.4g, KD %.4g (T %.3g s), xi %.3g C, feed-forward %.5g A/C, setpoint ramp %.3g C/s\n",
+  std::printf("  controller: Kp %.4g, KI %.4g, KD %.4g (T %.3g s), xi %.3g C, feed-forward %.5g A/C through a %.0f s "
+              "lag, setpoint ramp %.3g C/s\n",
               d["kp"].get<double>(), d["ki"].get<double>(), d["kd"].get<double>(), d["period_s"].get<double>(),
-              d["xi_c"].get<double>(), d["feed_forward_a_per_c"].get<double>(), d["setpoint_ramp_c_per_s"].get<double>());
+              d["xi_c"].get<double>(), d["feed_forward_a_per_c"].get<double>(), d["feed_forward_lag_s"].get<double>(),
+              d["setpoint_ramp_c_per_s"].get<double>());
   if (!d["rail"].is_null()) {
     std::printf("  rail limit: %.4g A - %.4g A/C x (casing - ambient); stuck-sensor drive threshold %.3g A\n",
                 d["rail"]["pos_a"].get<double>(), d["rail"]["a_per_c"].get<double>(), d["stuck_min_drive_a"].get<double>());

@@ -62,13 +62,13 @@ DaemonConfig parse_daemon_config(const toml::table& root, const std::string& sou
 
   const TomlTable control(toml_section(root, "control", source), "control", source,
                           {"setpoint_c", "kp", "ki", "kd", "period_s", "xi_c", "out_min_a", "out_max_a", "pid",
-                           "feed_forward_a_per_c", "setpoint_ramp_c_per_s", "rate_out_v_per_dps", "sensor_period_s",
-                           "controller_file"});
+                           "feed_forward_a_per_c", "feed_forward_lag_s", "setpoint_ramp_c_per_s", "rate_out_v_per_dps",
+                           "sensor_period_s", "controller_file"});
   c.controller_file = control.string("controller_file", "");
   if (!c.controller_file.empty()) {
     // The file (gyrotc tune's) sets the controller: the same keys here would be ignored.
     for (const char* key : {"setpoint_c", "kp", "ki", "kd", "period_s", "xi_c", "feed_forward_a_per_c",
-                            "setpoint_ramp_c_per_s"}) {
+                            "feed_forward_lag_s", "setpoint_ramp_c_per_s"}) {
       if (control.get(key) != nullptr) {
         control.fail_at(key, "set by control.controller_file (\"" + c.controller_file + "\"); give one or the other");
       }
@@ -89,6 +89,7 @@ DaemonConfig parse_daemon_config(const toml::table& root, const std::string& sou
   if (cc.pid.out_min >= cc.pid.out_max) control.fail_at("out_max_a", "must be above control.out_min_a");
   cc.pid_enabled = control.boolean("pid", true);
   cc.feed_forward_a_per_c = control.number("feed_forward_a_per_c", 0.0, -10.0, 10.0);
+  cc.feed_forward_lag_s = control.number("feed_forward_lag_s", 0.0, 0.0, 1e5);
   cc.setpoint_ramp_c_per_s = control.number("setpoint_ramp_c_per_s", 0.0, 0.0, 100.0);
   cc.rate_out_v_per_dps = control.number("rate_out_v_per_dps", cc.rate_out_v_per_dps, 1e-9, 1000.0);
   cc.rate_dac_vref_v = c.board.devices.rate_dac.vref_v;

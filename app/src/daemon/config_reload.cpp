@@ -50,6 +50,7 @@ bool reloadable_key(std::string_view key) {
                                                      "control.out_max_a",
                                                      "control.pid",
                                                      "control.feed_forward_a_per_c",
+                                                     "control.feed_forward_lag_s",
                                                      "control.setpoint_ramp_c_per_s",
                                                      "control.controller_file",
                                                      "calibration.file",

@@ -64,7 +64,7 @@ ControllerFile parse_controller_file(std::string_view text, const std::string& n
   ControllerFile c;
   const TomlTable control(toml_section(root, "control", name), "control", name,
                           {"setpoint_c", "kp", "ki", "kd", "period_s", "xi_c", "feed_forward_a_per_c",
-                           "setpoint_ramp_c_per_s"});
+                           "feed_forward_lag_s", "setpoint_ramp_c_per_s"});
   c.setpoint_c = required(control, "setpoint_c", -55.0, 125.0);
   c.kp = required(control, "kp", 1e-9, kInf);
   c.ki = required(control, "ki", 1e-9, kInf);
@@ -72,6 +72,7 @@ ControllerFile parse_controller_file(std::string_view text, const std::string& n
   c.period_s = required(control, "period_s", 0.01, 3600.0);
   c.xi_c = required(control, "xi_c", 0.0, 200.0);
   c.feed_forward_a_per_c = control.number("feed_forward_a_per_c", 0.0, -10.0, 10.0);
+  c.feed_forward_lag_s = control.number("feed_forward_lag_s", 0.0, 0.0, 1e5);
   c.setpoint_ramp_c_per_s = control.number("setpoint_ramp_c_per_s", 0.0, 0.0, 100.0);
 
   const toml::table* rail_table = toml_section(root, "rail", name);
@@ -108,6 +109,7 @@ std::string format_controller_file(const ControllerFile& c, const std::string& i
   out += "period_s = " + num(c.period_s) + "\n";
   out += "xi_c = " + num(c.xi_c) + "               # integral separation band\n";
   out += "feed_forward_a_per_c = " + num(c.feed_forward_a_per_c) + "\n";
+  out += "feed_forward_lag_s = " + num(c.feed_forward_lag_s) + "      # the ambient through the housing's lag\n";
   out += "setpoint_ramp_c_per_s = " + num(c.setpoint_ramp_c_per_s) + "\n";
   if (c.rail.known) {
     out += "\n[rail]                 # OPA548 output swing: max = pos_a - a_per_c * (casing - ambient)\n";
@@ -134,6 +136,7 @@ ControllerConfig apply_controller_file(const ControllerFile& file, ControllerCon
   base.pid.out_min = out_min;
   base.pid.out_max = out_max;
   base.feed_forward_a_per_c = file.feed_forward_a_per_c;
+  base.feed_forward_lag_s = file.feed_forward_lag_s;
   base.setpoint_ramp_c_per_s = file.setpoint_ramp_c_per_s;
   base.rail = file.rail;
   if (file.stuck_min_drive_a) base.limits.stuck_min_drive_a = *file.stuck_min_drive_a;

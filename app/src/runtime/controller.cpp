@@ -23,6 +23,8 @@ void validate(const ControllerConfig& c) {
   require(c.setpoint_c > l.min_valid_c && c.setpoint_c < l.over_temp_c, "setpoint_c",
           "must lie between min_valid_c and over_temp_c");
   require(std::isfinite(c.feed_forward_a_per_c), "feed_forward_a_per_c", "must be a number");
+  require(std::isfinite(c.feed_forward_lag_s) && c.feed_forward_lag_s >= 0.0, "feed_forward_lag_s",
+          "must be zero or positive");
   require(std::isfinite(c.setpoint_ramp_c_per_s) && c.setpoint_ramp_c_per_s >= 0.0,
           "setpoint_ramp_c_per_s", "must be zero or positive");
   if (c.rail.known) {
@@ -163,13 +165,14 @@ void Controller::on_temperature(const hal::TemperatureReading& reading, double n
   }
 }
 
-void Controller::on_ambient_temperature(const hal::TemperatureReading& reading,
-                                        double /*now_s*/) noexcept {
+void Controller::on_ambient_temperature(const hal::TemperatureReading& reading, double now_s) noexcept {
   const auto& l = config_.limits;
   if (reading.valid && std::isfinite(reading.temp_c) && reading.temp_c >= l.min_valid_c &&
       reading.temp_c <= l.max_valid_c) {
+    ff_ambient_.update(reading.temp_c, have_ambient_ ? now_s - ambient_time_s_ : 0.0, config_.feed_forward_lag_s);
     have_ambient_ = true;
     ambient_c_ = reading.temp_c;
+    ambient_time_s_ = now_s;
   }
 }
 
@@ -208,6 +211,7 @@ void Controller::apply_reload(const ControllerConfig& next) noexcept {
   config_.pid = next.pid;
   config_.pid_enabled = next.pid_enabled;
   config_.feed_forward_a_per_c = next.feed_forward_a_per_c;
+  config_.feed_forward_lag_s = next.feed_forward_lag_s;
   config_.setpoint_ramp_c_per_s = next.setpoint_ramp_c_per_s;
   config_.rail = next.rail;
   pid_.retune(next.pid);
@@ -284,7 +288,7 @@ TecCommand Controller::on_pid_tick(double now_s) noexcept {
   } else {
     active_setpoint_c_ = config_.setpoint_c;
   }
-  const double ff = control::feed_forward_a(config_.feed_forward_a_per_c, config_.setpoint_c, ambient_reading());
+  const double ff = control::feed_forward_a(config_.feed_forward_a_per_c, config_.setpoint_c, ff_ambient_.value_c());
   // Anti-windup on the current applied (issue 22): control/tec_law.hpp.
   const double current_a = control::pid_current_a(pid_, casing_c_, active_setpoint_c_, ff, applied_range());
   return drive(current_a, pid_.saturated(), now_s);

@@ -98,6 +98,9 @@ TuneResult tune_from_record(const TuneInput& input) {
   r.spec.max_a = r.fit.heating_limit_a;
   r.spec.min_a = std::min(r.fit.cooling_limit_a, -1e-3);
   r.spec.rail_known = r.fit.rail_reached;
+  for (const auto& e : r.fit.estimates) {
+    if (e.name == "shell_ratio" || e.name == "shell_tau_s") r.spec.shell_known = r.spec.shell_known && e.determined;
+  }
   start = std::chrono::steady_clock::now();
   try {
     r.design = tune::design_controller(r.fit.model, r.spec);
@@ -114,6 +117,7 @@ TuneResult tune_from_record(const TuneInput& input) {
   c.period_s = r.spec.period_s;
   c.xi_c = r.design.gains.xi_c;
   c.feed_forward_a_per_c = r.design.feed_forward_a_per_c;
+  c.feed_forward_lag_s = r.design.feed_forward_lag_s;
   c.setpoint_ramp_c_per_s = r.design.setpoint_ramp_c_per_s;
   c.rail = r.design.rail;
   c.stuck_min_drive_a = r.design.stuck_min_drive_a;
@@ -284,6 +288,7 @@ nlohmann::json tune_json(const TuneResult& r) {
                  {"period_s", r.spec.period_s},
                  {"xi_c", d.gains.xi_c},
                  {"feed_forward_a_per_c", d.feed_forward_a_per_c},
+                 {"feed_forward_lag_s", d.feed_forward_lag_s},
                  {"setpoint_ramp_c_per_s", d.setpoint_ramp_c_per_s},
                  {"stuck_min_drive_a", d.stuck_min_drive_a},
                  {"rail", d.rail.known ? json{{"pos_a", d.rail.pos_a}, {"neg_a", d.rail.neg_a}, {"a_per_c", d.rail.a_per_c}}

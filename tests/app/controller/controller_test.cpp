@@ -591,3 +591,43 @@ TEST_CASE("a reload that turns the PID off turns the TEC off at the next period"
   CHECK_FALSE(cmd.enable);
   CHECK(cmd.current_a == 0.0);
 }
+
+namespace {
+
+// The current with the casing held at the setpoint (no PID action: the
+// error is 0) and the ambient read every 10 s: 15 C for 100 s, then -25 C
+// for `after_s`. ff 0.005 A/C: 0.2 A at 15 C, 0.4 A at -25 C.
+double current_after_ambient_step(double lag_s, double after_s) {
+  ControllerConfig c;
+  c.feed_forward_a_per_c = 0.005;
+  c.feed_forward_lag_s = lag_s;
+  Harness h(c);
+  TecCommand cmd;
+  for (double t = 0.0; t < 100.0 + after_s - 1e-9; t += 10.0) {
+    const double ambient_c = t < 100.0 ? 15.0 : -25.0;
+    h.controller.on_ambient_temperature(good(ambient_c, h.now_s), h.now_s);
+    cmd = h.run_for(10.0, 55.0, true, false);
+  }
+  return cmd.current_a;
+}
+
+}  // namespace
+
+TEST_CASE("without a feed-forward lag the feed-forward follows an ambient step at once") {
+  CHECK(current_after_ambient_step(0.0, 0.0) == Approx(0.2).margin(1e-9));
+  CHECK(current_after_ambient_step(0.0, 10.0) == Approx(0.4).margin(1e-9));
+}
+
+TEST_CASE("with a feed-forward lag the feed-forward follows an ambient step as the housing does") {
+  // 200 s of lag: 1 - exp(-t / 200) of the step after t seconds.
+  CHECK(current_after_ambient_step(200.0, 10.0) == Approx(0.2 + 0.2 * (1.0 - std::exp(-10.0 / 200.0))).margin(1e-9));
+  CHECK(current_after_ambient_step(200.0, 200.0) == Approx(0.2 + 0.2 * (1.0 - std::exp(-1.0))).margin(1e-9));
+  CHECK(current_after_ambient_step(200.0, 2000.0) == Approx(0.4).margin(1e-4));
+}
+
+TEST_CASE("a negative feed-forward lag is rejected naming the field") {
+  ControllerConfig c;
+  c.feed_forward_lag_s = -1.0;
+  const Compensator comp(BiasModel::paper_reference());
+  CHECK_THROWS_WITH(Controller(c, comp), Catch::Contains("feed_forward_lag_s"));
+}

@@ -23,6 +23,7 @@ ControllerFile sample() {
   c.period_s = 2.0;
   c.xi_c = 0.75;
   c.feed_forward_a_per_c = 0.0049;
+  c.feed_forward_lag_s = 312.5;
   c.setpoint_ramp_c_per_s = 0.02;
   c.rail = RailLimit{true, 1.06, -1.02, 0.0042};
   c.stuck_min_drive_a = 0.61;
@@ -46,6 +47,7 @@ TEST_CASE("a controller file round-trips every value through its text") {
   CHECK(back.kd == c.kd);
   CHECK(back.xi_c == c.xi_c);
   CHECK(back.feed_forward_a_per_c == c.feed_forward_a_per_c);
+  CHECK(back.feed_forward_lag_s == c.feed_forward_lag_s);
   CHECK(back.setpoint_ramp_c_per_s == c.setpoint_ramp_c_per_s);
   CHECK(back.rail.known);
   CHECK(back.rail.pos_a == c.rail.pos_a);
@@ -71,6 +73,7 @@ TEST_CASE("applying a controller file sets the controller and keeps the board's 
   CHECK(c.limits.over_temp_c == 75.0);
   CHECK(c.limits.stuck_min_drive_a == 0.61);
   CHECK(c.rail.known);
+  CHECK(c.feed_forward_lag_s == 312.5);
 }
 
 TEST_CASE("a controller file with a missing key, an unknown key or the wrong format is refused naming it") {
@@ -90,6 +93,10 @@ TEST_CASE("a controller file with a missing key, an unknown key or the wrong for
   const std::string negative_kp = text.replace(text.find("kp = 1.25"), 9, "kp = -1.0");
   CHECK(input_error_of([&] { (void)parse_controller_file(negative_kp, "c.toml"); }).find("control.kp: must be within") !=
         std::string::npos);
+  std::string negative_lag = format_controller_file(sample());
+  negative_lag.replace(negative_lag.find("feed_forward_lag_s = 312.5"), 26, "feed_forward_lag_s = -5.0");
+  CHECK(input_error_of([&] { (void)parse_controller_file(negative_lag, "c.toml"); })
+            .find("control.feed_forward_lag_s: must be within") != std::string::npos);
 }
 
 TEST_CASE("the daemon configuration's controller_file sets the controller, relative to the configuration") {
@@ -102,7 +109,19 @@ TEST_CASE("the daemon configuration's controller_file sets the controller, relat
   CHECK(c.controller_file == dir + "/unit.toml");
   CHECK(c.controller.pid.kp == 1.25);
   CHECK(c.controller.feed_forward_a_per_c == 0.0049);
+  CHECK(c.controller.feed_forward_lag_s == 312.5);
   CHECK(c.controller.rail.known);
+}
+
+TEST_CASE("the daemon configuration reads [control] feed_forward_lag_s and refuses it next to a controller_file") {
+  const std::string own = write_temp("ff_lag.toml", "hal = \"sim\"\n[control]\nfeed_forward_a_per_c = 0.005\n"
+                                                    "feed_forward_lag_s = 120.0\n");
+  CHECK(load_daemon_config(own).controller.feed_forward_lag_s == 120.0);
+  const std::string both = write_temp("ff_lag_conflict.toml", "hal = \"sim\"\n[control]\ncontroller_file = \"unit.toml\"\n"
+                                                              "feed_forward_lag_s = 120.0\n");
+  CHECK(input_error_of([&] { (void)load_daemon_config(both); })
+            .find("ff_lag_conflict.toml:4: control.feed_forward_lag_s: set by control.controller_file") !=
+        std::string::npos);
 }
 
 TEST_CASE("the daemon configuration refuses [control] gains next to a controller_file, naming the key") {

@@ -110,6 +110,12 @@ TEST_CASE("gyrotc tune writes a controller file that simulate can run, and repor
   CHECK(j.at("parameters").size() >= 9);
   for (const auto& p : j.at("parameters")) CHECK(p.contains("std_error"));
   CHECK(j.at("design").at("feed_forward_a_per_c").get<double>() > 0.0);
+  // The record pins the shell down: the feed-forward answers the ambient through it.
+  for (const auto& p : j.at("parameters")) {
+    if (p.at("name") != "shell_tau_s") continue;
+    REQUIRE(p.at("determined").get<bool>());
+    CHECK(j.at("design").at("feed_forward_lag_s").get<double>() == p.at("value").get<double>());
+  }
   CHECK(j.contains("identify_s"));
   const app::ControllerFile c = app::load_controller_file(out);
   CHECK(c.setpoint_c == 55.0);

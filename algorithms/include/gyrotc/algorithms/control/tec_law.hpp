@@ -1,5 +1,7 @@
 #pragma once
 
+#include <limits>
+
 #include "gyrotc/algorithms/control/pid.hpp"
 
 // The TEC current law the Controller applies every PID period, as pure
@@ -37,6 +39,25 @@ CurrentRange applied_range(double out_min, double out_max, const RailLimit& rail
 // Feed-forward from the ambient sensor: a_per_c * (setpoint - ambient), 0
 // without an ambient reading (NaN).
 double feed_forward_a(double a_per_c, double setpoint_c, double ambient_c) noexcept;
+
+// The ambient the feed-forward answers (issue 35): the ambient reading
+// through a first-order lag of lag_s, the time the housing takes to carry a
+// change of the ambient to the casing (`gyrotc tune`: the identified shell's
+// time constant with the casing held). Without it the feed-forward answers a
+// chamber ramp at once, and until the housing follows the casing sees the
+// error the feed-forward was meant to prevent, with the opposite sign.
+class AmbientLag {
+ public:
+  // A new reading dt_s after the last one: the lagged ambient moves towards
+  // it by 1 - exp(-dt_s / lag_s). The first finite reading starts the lag
+  // there; lag_s <= 0 is no lag (the reading itself); a NaN reading is none.
+  void update(double reading_c, double dt_s, double lag_s) noexcept;
+  // NaN until the first reading.
+  double value_c() const noexcept { return value_c_; }
+
+ private:
+  double value_c_ = std::numeric_limits<double>::quiet_NaN();
+};
 
 // One PID period with a feed-forward ff_a: the PID's share may use what the
 // feed-forward leaves of the range (so its saturation and anti-windup refer

@@ -39,6 +39,7 @@ struct DesignSpec {
   double min_a = -1.0;                  // the TEC current limits
   double max_a = 1.0;
   bool rail_known = false;              // the identified rail limits the stage
+  bool shell_known = true;              // the record pins the shell down: the feed-forward's lag
   double room_c = 16.0;                 // the warm-up's ambient
   double band_low_c = -20.0;            // seed Section 6.2: hold while the ambient is within
   double band_high_c = 35.0;
@@ -80,6 +81,7 @@ struct LoopRun {
 struct ControllerDesign {
   PidGains gains;
   double feed_forward_a_per_c = 0.0;
+  double feed_forward_lag_s = 0.0;     // the ambient through the model's shell (control::AmbientLag)
   double setpoint_ramp_c_per_s = 0.0;  // a step: nothing the unit can follow is faster
   control::RailLimit rail;
   double stuck_min_drive_a = 0.5;
@@ -104,7 +106,7 @@ LoopMargins loop_margins(const ThermalModel& model, const DesignSpec& spec, cons
 // The design programme (warm-up at room_c, then the chamber's excursions) on
 // the model in closed loop with the Controller's law.
 LoopRun simulate_loop(const ThermalModel& model, const DesignSpec& spec, const PidGains& gains,
-                      double feed_forward_a_per_c, const control::RailLimit& rail);
+                      double feed_forward_a_per_c, double feed_forward_lag_s, const control::RailLimit& rail);
 
 // The model's physical minimum: from power-on at room_c (every node at
 // room_c) at full heating current

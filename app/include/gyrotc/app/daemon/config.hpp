@@ -12,7 +12,7 @@
 // board part (hal, [devices], [tec], [sim]: parse_board_config) plus
 //
 //   [control]      setpoint_c, kp, ki, kd, period_s, xi_c, out_min_a, out_max_a,
-//                  pid, feed_forward_a_per_c, setpoint_ramp_c_per_s,
+//                  pid, feed_forward_a_per_c, feed_forward_lag_s, setpoint_ramp_c_per_s,
 //                  rate_out_v_per_dps, sensor_period_s, controller_file (a
 //                  `gyrotc tune` controller file, relative to this file; it
 //                  sets setpoint, gains, period, xi, feed-forward, ramp, rail

@@ -13,7 +13,7 @@
 //   format = "gyrotc-controller", version = 1
 //   [control]    setpoint_c, kp, ki, kd, period_s, xi_c (required: the seed's
 //                gain form of Eq. 17/18), feed_forward_a_per_c,
-//                setpoint_ramp_c_per_s (optional, default 0)
+//                feed_forward_lag_s, setpoint_ramp_c_per_s (optional, default 0)
 //   [rail]       pos_a, neg_a, a_per_c: the OPA548 stage's rail limit
 //                (ControllerConfig::rail); optional
 //   [failsafe]   stuck_min_drive_a (optional)
@@ -34,6 +34,7 @@ struct ControllerFile {
   double period_s = 2.0;
   double xi_c = 0.5;
   double feed_forward_a_per_c = 0.0;
+  double feed_forward_lag_s = 0.0;
   double setpoint_ramp_c_per_s = 0.0;
   RailLimit rail;
   std::optional<double> stuck_min_drive_a;

@@ -78,8 +78,11 @@ struct ControllerConfig {
   bool pid_enabled = true;   // false: the TEC stays off (compensation only)
   FailSafeLimits limits;
   // Tuned options (all off = the seed's controller).
-  // Feed-forward from the ambient sensor: I_ff = ff_a_per_c * (setpoint - ambient).
+  // Feed-forward from the ambient sensor: I_ff = ff_a_per_c * (setpoint - ambient),
+  // the ambient reading through a first-order lag of feed_forward_lag_s (the
+  // housing's, control/tec_law.hpp AmbientLag; 0 = the reading itself).
   double feed_forward_a_per_c = 0.0;
+  double feed_forward_lag_s = 0.0;
   // Setpoint ramp from the first casing reading (C/s); 0 = a step.
   double setpoint_ramp_c_per_s = 0.0;
   // The stage's rail limit, when known; the PID's anti-windup and the current
@@ -210,6 +213,8 @@ class Controller {
 
   bool have_ambient_ = false;
   double ambient_c_ = 0.0;
+  double ambient_time_s_ = 0.0;
+  control::AmbientLag ff_ambient_;  // what the feed-forward answers
 
   double opa548_off_until_s_ = 0.0;
   bool have_adc_time_ = false;
