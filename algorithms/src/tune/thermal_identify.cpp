@@ -378,11 +378,17 @@ ThermalFit identify_thermal(const TuneRecord& record, double experiment_scale) {
   };
   // The search from one first guess: the grids and the Levenberg-Marquardt runs.
   const double good_sse = 4.0 * fit_quantisation_var() * static_cast<double>(n);
+  // A first guess's search vector with the shell at a typical one (a first
+  // guess cannot see the shell).
+  auto at_typical_shell = [&](const std::vector<double>& guess) {
+    std::vector<double> th = guess;
+    th.resize(k_params);
+    th[kLogShellRatio] = std::log(5.0);
+    th[kLogShellTau] = std::log(80.0);
+    return th;
+  };
   auto search = [&](const std::vector<double>& start) {
-    std::vector<double> base = start;
-    base.resize(k_params);
-    base[kLogShellRatio] = std::log(5.0);
-    base[kLogShellTau] = std::log(80.0);
+    const std::vector<double> base = at_typical_shell(start);
     const double rail_guess = model_of(start).rail_a;
     const double rail_scale = rail_guess < 0.9 * kNoRailA ? rail_guess : std::max(0.05, max_command);
     std::vector<double> best_rail = base;
@@ -458,11 +464,7 @@ ThermalFit identify_thermal(const TuneRecord& record, double experiment_scale) {
     std::size_t best = 1;
     double best_sse = std::numeric_limits<double>::infinity();
     for (std::size_t g = 1; g < guesses.size(); ++g) {
-      std::vector<double> th = guesses[g];
-      th.resize(k_params);
-      th[kLogShellRatio] = std::log(5.0);
-      th[kLogShellTau] = std::log(80.0);
-      const double sse = sse_of(th);
+      const double sse = sse_of(at_typical_shell(guesses[g]));
       if (sse < best_sse) {
         best_sse = sse;
         best = g;
