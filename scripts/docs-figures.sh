@@ -51,6 +51,10 @@ step "$gyrotc" simulate --profile flat.csv --controller paper --sample-rate-hz 1
   --rate-csv rate_on.csv --rate-window 900:1500
 step "$gyrotc" allan --data rate_on.csv --plot "$figures/allan.svg"
 
+# docs/SELFCAL.md: the self-calibration sweep at 20 C and the calibration it gives.
+step "$gyrotc" simulate --profile selfcal --ambient-c 20 --out selfcal --plot "$figures/selfcal.svg"
+step "$gyrotc" calibrate --data selfcal/record.csv --out selfcal.toml --plot "$figures/selfcal-fit.svg"
+
 # The guide's tune section: the identification experiment and the model fitted to it.
 step "$gyrotc" simulate --profile tune --out tune
 step "$gyrotc" tune --data tune/record.csv --out controller.toml --plot "$figures/tune.svg"

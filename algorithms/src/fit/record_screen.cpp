@@ -18,6 +18,7 @@ std::string format(const char* fmt, double a, double b = 0.0, double c = 0.0, do
 struct Bin {
   std::size_t count = 0;
   double abs_rate_sum_c_per_min = 0.0;
+  double rate_sum_c_per_min = 0.0;
 };
 
 // The casing's rate of change at each sample, over +-window/2 (fewer at the
@@ -85,6 +86,7 @@ std::vector<ScreenFinding> screen_calibration_record(const RecordSamples& record
     Bin& b = bins[static_cast<long long>(std::floor(record.sensor_c[i] / limits.bin_width_c))];
     ++b.count;
     b.abs_rate_sum_c_per_min += std::fabs(rate[i]);
+    b.rate_sum_c_per_min += rate[i];
   }
 
   const auto [lo, hi] = std::minmax_element(record.sensor_c.begin(), record.sensor_c.end());
@@ -110,14 +112,25 @@ std::vector<ScreenFinding> screen_calibration_record(const RecordSamples& record
                 static_cast<double>(fullest->second.count) / median, median)});
   }
 
+  // A bin is unsettled when its samples moved on average one way faster than
+  // max_rate (the lag does not cancel), or crossed it faster than
+  // max_crossing_rate either way.
   std::size_t unsettled = 0;
+  double worst_excess = 0.0;
   double worst_rate = 0.0;
   double worst_bin_c = 0.0;
   for (const auto& [key, b] : bins) {
-    const double mean_rate = b.abs_rate_sum_c_per_min / static_cast<double>(b.count);
-    if (mean_rate > limits.max_rate_c_per_min) ++unsettled;
-    if (mean_rate > worst_rate) {
-      worst_rate = mean_rate;
+    const double count = static_cast<double>(b.count);
+    const double net_rate = std::fabs(b.rate_sum_c_per_min) / count;
+    const double crossing_rate = b.abs_rate_sum_c_per_min / count;
+    const double excess = std::max(net_rate / limits.max_rate_c_per_min,
+                                   crossing_rate / limits.max_crossing_rate_c_per_min);
+    if (excess > 1.0) ++unsettled;
+    if (excess > worst_excess) {
+      worst_excess = excess;
+      worst_rate = net_rate / limits.max_rate_c_per_min >= crossing_rate / limits.max_crossing_rate_c_per_min
+                       ? net_rate
+                       : crossing_rate;
       worst_bin_c = static_cast<double>(key) * limits.bin_width_c;
     }
   }
@@ -126,9 +139,9 @@ std::vector<ScreenFinding> screen_calibration_record(const RecordSamples& record
         {ScreenCheck::unsettled,
          format("in %g of %g bins the casing moved faster than %g C/min", static_cast<double>(unsettled),
                 static_cast<double>(bins.size()), limits.max_rate_c_per_min) +
-             format(" (%.2f C/min at %g C): the die lags the sensor, so those bins' bias belongs to another "
-                    "temperature",
-                    worst_rate, worst_bin_c)});
+             format(" (%.2f C/min at %g C; a bin crossed both ways at one rate may take up to %g C/min): the die "
+                    "lags the sensor, so those bins' bias belongs to another temperature",
+                    worst_rate, worst_bin_c, limits.max_crossing_rate_c_per_min)});
   }
   return findings;
 }

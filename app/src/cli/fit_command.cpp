@@ -605,6 +605,16 @@ void require_positive(const T& values, const char* option) {
 
 }  // namespace
 
+void fit_record_auto(const std::string& data, const std::string& out, const std::string& plot, bool json) {
+  FitOptions o;
+  o.data = data;
+  o.method = "auto";
+  o.out = out;
+  o.plot = plot;
+  o.json = json;
+  run_single(o);
+}
+
 void add_fit_command(CLI::App& app) {
   auto opts = std::make_shared<FitOptions>();
   CLI::App* cmd = app.add_subcommand(
@@ -667,8 +677,10 @@ void add_fit_command(CLI::App& app) {
   cmd->add_option("--accept", opts->accept,
                   "Time-series input: fit despite these refusals, each a judgement call (the calibration\n"
                   "file's [source] then lists them): span (under 20 C or 8 bins, or 3 per coefficient),\n"
-                  "uneven (fullest bin over 10x the median), unsettled (a bin where the casing moved\n"
-                  "faster than 0.5 C/min). A record the TEC held at its setpoint is always refused")
+                  "uneven (fullest bin over 10x the median), unsettled (a bin whose samples moved one way\n"
+                  "faster than 0.5 C/min on average, or crossed it faster than 2 C/min: a bin swept once up\n"
+                  "and once down at one rate, as `gyrotc calibrate` does, has the die's lag cancel in its\n"
+                  "mean). A record the TEC held at its setpoint is always refused")
       ->delimiter(',')
       ->check(CLI::IsMember({"span", "uneven", "unsettled"}));
   cmd->add_option("--scale", opts->scale_mv_per_dps, "Scale factor, mV/(deg/s) (seed Table 2: 8.774)")

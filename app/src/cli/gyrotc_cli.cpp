@@ -14,6 +14,7 @@ void add_gyrotc_commands(CLI::App& cli) {
   cli.footer("Run 'gyrotc <command> --help' for the options of a command.");
   add_simulate_command(cli);
   add_fit_command(cli);
+  add_calibrate_command(cli);
   add_identify_command(cli);
   add_tune_command(cli);
   add_allan_command(cli);

@@ -21,7 +21,8 @@ void add_record_command(CLI::App& app) {
       "rate, tec_a and the flags. `gyrotc fit --data FILE.csv` reads it (time_s, sensor_c, gyro_mv).\n"
       "Choose what drives the TEC, there is no default: --pid off for a calibration (the TEC stays off\n"
       "while the chamber sweeps the temperature; `gyrotc fit` refuses a record where the loop held it),\n"
-      "--pid on to hold the setpoint, --experiment tune for the experiment `gyrotc tune` reads.");
+      "--pid on to hold the setpoint, --experiment tune for the experiment `gyrotc tune` reads,\n"
+      "--experiment selfcal for the sweep `gyrotc calibrate` fits.");
   cmd->add_option("-c,--config", options->config_path, "configuration file (TOML), as for `gyrotc run`")
       ->capture_default_str();
   cmd->add_option("--out", options->record_csv, "CSV file to write")->required();
@@ -35,8 +36,10 @@ void add_record_command(CLI::App& app) {
   cmd->add_option("--experiment", *experiment,
                   "tune: run the identification experiment of `gyrotc tune` instead of the PID (rest, full\n"
                   "current to the setpoint, relay, PRBS, coast, cooling, reheat; at most 2 h 35 min, every\n"
-                  "fail-safe on) and stop when it ends; then `gyrotc tune --data FILE.csv --out controller.toml`")
-      ->check(CLI::IsMember({"tune"}));
+                  "fail-safe on) and stop when it ends; then `gyrotc tune --data FILE.csv --out controller.toml`.\n"
+                  "selfcal: the self-calibration sweep of `gyrotc calibrate` (which runs it and fits in one step);\n"
+                  "then `gyrotc calibrate --data FILE.csv --out calibration.toml`")
+      ->check(CLI::IsMember({"tune", "selfcal"}));
   cmd->add_option("--experiment-scale", options->experiment_scale,
                   "--experiment tune on a unit faster than the reference (smaller heat capacities): every phase's\n"
                   "length times this factor (0 < F <= 1; 0.1: at most 16 min). Slow parts of the model (the loss to\n"
@@ -54,7 +57,7 @@ void add_record_command(CLI::App& app) {
       // here once made `fit` take a closed-loop record for a calibration.
       throw CLI::ValidationError(
           "record: say what drives the TEC: --pid off (a chamber sweep for `gyrotc fit`), --pid on (hold the "
-          "setpoint) or --experiment tune");
+          "setpoint), --experiment tune or --experiment selfcal");
     }
     if (!pid->empty() && !experiment->empty()) {
       throw CLI::ValidationError("record: --pid and --experiment: choose one (the experiment drives the TEC itself)");
@@ -64,6 +67,7 @@ void add_record_command(CLI::App& app) {
     }
     if (!pid->empty()) options->pid = *pid == "on";
     options->tune_experiment = *experiment == "tune";
+    options->selfcal_experiment = *experiment == "selfcal";
     run_session(*options);
   });
 }

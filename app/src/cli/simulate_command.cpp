@@ -15,6 +15,7 @@
 #include <string>
 
 #include "gyrotc/algorithms/fit/bias_model.hpp"
+#include "gyrotc/algorithms/calibrate/sweep_experiment.hpp"
 #include "gyrotc/algorithms/tune/experiment.hpp"
 #include "gyrotc/app/formats/calibration_file.hpp"
 #include "gyrotc/app/formats/chamber_profile_file.hpp"
@@ -167,7 +168,10 @@ plot::Figure simulation_figure(const SimulationResult& r, const SimulateOptions&
                                const model::ChamberProfile& profile, double tec_limit_a, bool regulated,
                                const std::optional<ComparedRun>& other) {
   plot::Figure f;
-  f.title = "gyrotc simulate: " + o.profile + " profile, " + o.controller + " controller";
+  f.title = "gyrotc simulate: " + o.profile + " profile, " +
+            (o.profile == "tune"      ? std::string("identification experiment")
+             : o.profile == "selfcal" ? std::string("self-calibration sweep")
+                                      : o.controller + " controller");
   f.x.title = "time (s)";
   f.x.tight = true;
   f.panel_height_px = 150.0;
@@ -242,7 +246,9 @@ nlohmann::json summary_json(const SimulateOptions& o, const std::string& calibra
   nlohmann::json j;
   const auto& s = r.summary;
   j["profile"] = o.profile;
-  j["controller"] = o.profile == "tune" ? std::string("identification experiment") : o.controller;
+  j["controller"] = o.profile == "tune"      ? std::string("identification experiment")
+                    : o.profile == "selfcal" ? std::string("self-calibration sweep")
+                                             : o.controller;
   j["calibration"] = calibration_name;
   j["sample_rate_hz"] = o.sample_rate_hz;
   j["seed"] = o.seed;
@@ -251,9 +257,9 @@ nlohmann::json summary_json(const SimulateOptions& o, const std::string& calibra
   j["speedup"] = wall_s > 0.0 ? s.simulated_s / wall_s : 0.0;
   j["samples"] = r.counters.samples;
   // Control figures only where something held the setpoint: with the
-  // controller off, or during the identification experiment, a "settle time"
-  // or an error from the setpoint means nothing.
-  const bool regulated = o.controller != "off" && o.profile != "tune";
+  // controller off, or during an experiment, a "settle time" or an error from
+  // the setpoint means nothing.
+  const bool regulated = o.controller != "off" && o.profile != "tune" && o.profile != "selfcal";
   if (regulated) {
     j["settle_s"] = s.settle_s >= 0.0 ? nlohmann::json(s.settle_s) : nlohmann::json(nullptr);
     // null when it never settled: there is no in-band hold to judge, not a zero error.
@@ -324,7 +330,15 @@ void print_text(const nlohmann::json& j, const std::optional<std::string>& csv,
                 seg.contains("bias_uncompensated_dps") ? num(seg["bias_uncompensated_dps"], "%.3f").c_str() : "-",
                 seg.contains("bias_compensated_dps") ? num(seg["bias_compensated_dps"], "%.3f").c_str() : "-");
   }
-  if (j.contains("record")) {
+  if (j.contains("record") && j["profile"] == "selfcal") {
+    const auto& e = j["experiment"];
+    std::printf("  self-calibration sweep: %.0f s at %.1f C ambient%s; casing %s .. %s C (asked %.1f .. %.1f C)\n"
+                "  record for `gyrotc calibrate --data %s --out calibration.toml`\n",
+                e["duration_s"].get<double>(), e["ambient_c"].get<double>(),
+                e["finished"].get<bool>() ? "" : " (did not finish)", num(e["reached_low_c"], "%.1f").c_str(),
+                num(e["reached_high_c"], "%.1f").c_str(), e["asked_low_c"].get<double>(),
+                e["asked_high_c"].get<double>(), j["record"].get<std::string>().c_str());
+  } else if (j.contains("record")) {
     std::printf("  identification experiment: %.0f s at %.1f C ambient%s; record for `gyrotc tune`: %s\n",
                 j["experiment"]["duration_s"].get<double>(), j["experiment"]["ambient_c"].get<double>(),
                 j["experiment"]["finished"].get<bool>() ? "" : " (did not finish)",
@@ -350,18 +364,30 @@ void run(const SimulateOptions& o) {
   if (!o.compare.empty() && o.plot.empty()) throw InputError("--compare: only with --plot (it overlays the plot)");
   std::optional<ComparedRun> compared;
   if (!o.compare.empty()) compared = read_compared_run(o.compare);
-  const bool experiment = o.profile == "tune";
+  const bool tune_experiment = o.profile == "tune";
+  const bool selfcal = o.profile == "selfcal";
+  const bool experiment = tune_experiment || selfcal;
   const tune::ExperimentPlan plan = tune::ExperimentPlan{}.scaled(o.experiment_scale);
-  const model::ChamberProfile profile = experiment ? tune_experiment_room(o.ambient_c, plan)
-                                                   : chamber_profile_by_name(o.profile, data_dir());
   SimulationSetup setup;
   if (!o.plant.empty()) setup.plant = load_plant(o.plant);
+  // The self-calibration starts from a unit that has sat in the room.
+  if (selfcal) setup.plant.initial_temp_c = o.ambient_c;
+  const ControllerConfig experiment_controller = controller_for("paper", setup.plant);
+  const calibrate::SweepPlan sweep_plan = calibrate::plan_below_over_temp(experiment_controller.limits.over_temp_c);
+  const calibrate::SweepRange sweep_range = sweep_plan.range(o.ambient_c, experiment_controller.setpoint_c);
+  const model::ChamberProfile profile =
+      tune_experiment ? tune_experiment_room(o.ambient_c, plan)
+      : selfcal       ? model::ChamberProfile({{"selfcal", 0.0, 2.0 * sweep_plan.max_duration_s(sweep_range),
+                                                o.ambient_c, o.ambient_c}})
+                      : chamber_profile_by_name(o.profile, data_dir());
   setup.seed = o.seed;
   setup.sample_rate_hz = o.sample_rate_hz;
   setup.adc_model = o.adc_model == "bit" ? hal::SimAdcModel::bit_level : hal::SimAdcModel::transaction;
   setup.controller = controller_for(experiment ? std::string("paper") : o.controller, setup.plant);
   tune::IdentificationExperiment program(plan);
-  if (experiment) setup.program = &program;
+  calibrate::SweepExperiment sweep(sweep_plan);
+  if (tune_experiment) setup.program = &program;
+  if (selfcal) setup.program = &sweep;
   // Refuse a bad output directory before a long run.
   if (!o.out.empty()) {
     std::error_code ec;
@@ -407,10 +433,20 @@ void run(const SimulateOptions& o) {
     plot_path = o.plot;
   }
   nlohmann::json j = summary_json(o, calibration_name, result, wall_s);
-  if (experiment) {
+  if (tune_experiment) {
     j["experiment"] = {{"ambient_c", o.ambient_c},
                        {"duration_s", result.rows.empty() ? 0.0 : result.rows.back().time_s},
                        {"finished", program.phase() == tune::ExperimentPhase::done}};
+  }
+  if (selfcal) {
+    auto temp = [](double c) { return std::isnan(c) ? nlohmann::json(nullptr) : nlohmann::json(c); };
+    j["experiment"] = {{"ambient_c", o.ambient_c},
+                       {"duration_s", result.rows.empty() ? 0.0 : result.rows.back().time_s},
+                       {"finished", sweep.phase() == calibrate::SweepPhase::done},
+                       {"asked_low_c", sweep_range.low_c},
+                       {"asked_high_c", sweep_range.high_c},
+                       {"reached_low_c", temp(sweep.reached_low_c())},
+                       {"reached_high_c", temp(sweep.reached_high_c())}};
   }
   if (!o.out.empty()) {
     csv_path = o.out + "/simulation.csv";
@@ -454,10 +490,13 @@ void add_simulate_command(CLI::App& app) {
   cmd->add_option("--profile", options->profile,
                   "chamber profile: fig26 (seed Section 6.2), table2 (-40..80 C in 5 C steps, 60 min "
                   "soaks, seed Section 4.2), a CSV file (time_s,ambient_c or the fig26 segment format), or "
+                  "selfcal: the self-calibration sweep of `gyrotc calibrate` (the TEC sweeps the casing from 12 C "
+                  "below --ambient-c to 12 C above the setpoint and back, at most 4 h at 20 C; writes record.csv "
+                  "into --out), "
                   "tune: the identification experiment of `gyrotc tune` (<= 3 h at --ambient-c; writes "
                   "record.csv, the board's record, into --out)")
       ->capture_default_str();
-  cmd->add_option("--ambient-c", options->ambient_c, "--profile tune: the room's (chamber's) constant temperature")
+  cmd->add_option("--ambient-c", options->ambient_c, "--profile tune and selfcal: the room's (chamber's) constant temperature")
       ->check(CLI::Range(-40.0, 80.0))
       ->capture_default_str();
   cmd->add_option("--experiment-scale", options->experiment_scale,

@@ -76,7 +76,8 @@ std::string status_sentence(const DaemonStatus& s) {
   }
   if (state == "starting") return "starting: no casing reading yet, TEC off";
   if (state == "experiment")
-    return format("identification experiment: casing %.2f °C, TEC %+.2f A", s.casing_c, s.tec_a);
+    return format("experiment (%s): casing %.2f °C, TEC %+.2f A",
+                  s.experiment.empty() ? "TEC programme" : s.experiment.c_str(), s.casing_c, s.tec_a);
   if (state == "tec_off") return format("TEC off (compensation only): casing %.2f °C", s.casing_c);
   if (state == "holding") return format("holding %.2f °C ±%.2f, TEC %+.2f A", s.setpoint_c, s.held_error_c, s.tec_a);
   if (state == "saturated") {

@@ -15,6 +15,7 @@
 #include <nlohmann/json.hpp>
 
 #include "gyrotc/algorithms/fit/compensator.hpp"
+#include "gyrotc/algorithms/calibrate/sweep_experiment.hpp"
 #include "gyrotc/algorithms/tune/experiment.hpp"
 #include "gyrotc/app/formats/calibration_in_use.hpp"
 #include "gyrotc/app/runtime/kernel_rt.hpp"
@@ -99,7 +100,8 @@ double current_limit_a(const ControllerConfig& c) {
 }
 
 // What the status says of this daemon from its start on.
-StatusPublisherOptions status_options(const DaemonConfig& config, bool tune_experiment, const std::string& calibration,
+StatusPublisherOptions status_options(const DaemonConfig& config, const std::string& experiment,
+                                      const std::string& calibration,
                                       const std::string& calibration_sha256, double started_unix_s) {
   StatusPublisherOptions o;
   o.status_file = config.output.status_file;
@@ -108,7 +110,8 @@ StatusPublisherOptions status_options(const DaemonConfig& config, bool tune_expe
   s.pid = static_cast<int>(::getpid());
   s.hal = config.board.hal == HalKind::sim ? "sim" : "linux";
   s.config = config.source;
-  s.mode = tune_experiment ? "experiment" : (config.controller.pid_enabled ? "pid" : "tec_off");
+  s.mode = !experiment.empty() ? "experiment" : (config.controller.pid_enabled ? "pid" : "tec_off");
+  s.experiment = experiment;
   s.started_unix_s = started_unix_s;
   s.tec_limit_a = current_limit_a(config.controller);
   s.calibration = calibration;
@@ -140,12 +143,41 @@ void safe_off_board(const DaemonConfig& config) {
   }
 }
 
-void run_session(const SessionOptions& options) {
+namespace {
+
+// The self-calibration's progress, each status interval: what a user
+// watching a 4 h run wants to know.
+void log_sweep_progress(const calibrate::SweepExperiment& sweep, double casing_c) {
+  const double left_s = sweep.remaining_s();
+  char left[48] = "not known yet";
+  if (std::isfinite(left_s)) std::snprintf(left, sizeof left, "about %.0f min", left_s / 60.0);
+  const auto end = [](double c) {
+    char text[16] = "-";
+    if (std::isfinite(c)) std::snprintf(text, sizeof text, "%.1f C", c);
+    return std::string(text);
+  };
+  char target[24] = "-";
+  if (std::isfinite(sweep.target_c())) std::snprintf(target, sizeof target, "%.2f C", sweep.target_c());
+  GYROTC_LOG_NOTICE("self-calibration: %s, casing %.2f C, target %s, ends reached: low %s, high %s; left %s",
+                    calibrate::to_string(sweep.phase()), casing_c, target, end(sweep.reached_low_c()).c_str(),
+                    end(sweep.reached_high_c()).c_str(), left);
+}
+
+}  // namespace
+
+std::string run_session(const SessionOptions& options) {
   DaemonConfig config = load_daemon_config(options.config_path);
   // What the daemon started with, for the keys a SIGHUP cannot apply (config_reload.hpp).
   const toml::table started_with = toml::parse_file(options.config_path);
   if (!options.controller_file.empty()) use_controller_file(config, options.controller_file);
   if (options.pid) config.controller.pid_enabled = *options.pid;
+  const bool experiment_runs = options.tune_experiment || options.selfcal_experiment;
+  if (options.tune_experiment && options.selfcal_experiment) {
+    throw InputError("the identification experiment and the self-calibration sweep: one at a time");
+  }
+  if (options.selfcal_experiment && !config.controller.pid_enabled) {
+    throw InputError("the self-calibration sweep drives the TEC: it cannot run with the PID (TEC) off");
+  }
   if (options.tune_experiment && !config.controller.pid_enabled) {
     throw InputError("the identification experiment drives the TEC: it cannot run with the PID (TEC) off");
   }
@@ -164,6 +196,8 @@ void run_session(const SessionOptions& options) {
   Controller controller(config.controller, *compensators.back());
   tune::IdentificationExperiment experiment(tune::ExperimentPlan{}.scaled(options.experiment_scale));
   if (options.tune_experiment) controller.run_program(&experiment);
+  calibrate::SweepExperiment sweep(calibrate::plan_below_over_temp(config.controller.limits.over_temp_c));
+  if (options.selfcal_experiment) controller.run_program(&sweep);
 
   // Output files before any device: a bad path fails without touching the board.
   if (!options.summary_json.empty()) prepare_output_file(options.summary_json, "--summary-json");
@@ -200,6 +234,12 @@ void run_session(const SessionOptions& options) {
     const double bound_s = experiment.plan().max_duration_s() + 60.0;
     ro.duration_s = ro.duration_s > 0.0 ? std::min(ro.duration_s, bound_s) : bound_s;
   }
+  if (options.selfcal_experiment) {
+    // The sweep ends itself; this bounds it at the coldest ambient the
+    // sensor reads, the range then the widest.
+    const double bound_s = sweep.plan().max_duration_s({-55.0, sweep.plan().ceiling_c}) + 60.0;
+    ro.duration_s = ro.duration_s > 0.0 ? std::min(ro.duration_s, bound_s) : bound_s;
+  }
   ro.sample_period_s = hal::Ads1251::kClocksPerSample / config.board.devices.adc.fclk_hz;
   ro.output_period_s = config.output.period_s;
   ro.sensor_period_s = config.sensor_period_s;
@@ -222,8 +262,9 @@ void run_session(const SessionOptions& options) {
                     config.board.hal == HalKind::sim ? "the simulated board" : "the board", config.source.c_str(),
                     runner.is_realtime() ? "SCHED_FIFO" : "normal scheduler (--allow-non-rt)",
                     runner.memory_locked() ? "locked" : "not locked",
-                    options.tune_experiment ? "replaced by the identification experiment"
-                                            : (config.controller.pid_enabled ? "on" : "off"),
+                    options.tune_experiment      ? "replaced by the identification experiment"
+                    : options.selfcal_experiment ? "replaced by the self-calibration sweep"
+                                                 : (config.controller.pid_enabled ? "on" : "off"),
                     calibration_text.c_str());
   if (options.tune_experiment) {
     GYROTC_LOG_NOTICE("identification experiment: at most %.0f s; then `gyrotc tune --data %s --out controller.toml`",
@@ -236,7 +277,11 @@ void run_session(const SessionOptions& options) {
     return std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
   };
   StatusPublisher publisher(
-      status_options(config, options.tune_experiment, calibration_text, calibration_sha256, unix_now_s()));
+      status_options(config,
+                     options.tune_experiment      ? "identification"
+                     : options.selfcal_experiment ? "self-calibration"
+                                                  : "",
+                     calibration_text, calibration_sha256, unix_now_s()));
   auto next_publish = started;
   auto next_status = started + std::chrono::duration_cast<clock::duration>(
                                    std::chrono::duration<double>(config.output.status_interval_s));
@@ -268,8 +313,8 @@ void run_session(const SessionOptions& options) {
         controller.set_compensator(*compensators.back());
         GYROTC_LOG_NOTICE("SIGHUP: calibration reloaded from %s", text.c_str());
         config.output.status_interval_s = plan.config.output.status_interval_s;
-        if (options.tune_experiment) {
-          GYROTC_LOG_NOTICE("SIGHUP: the identification experiment drives the TEC: [control] not applied");
+        if (experiment_runs) {
+          GYROTC_LOG_NOTICE("SIGHUP: an experiment drives the TEC: [control] not applied");
         } else {
           // Kept alive: the loop thread reads it at its next PID period (Controller::request_reload).
           reloads.push_back(std::make_unique<ControllerConfig>(plan.config.controller));
@@ -318,6 +363,7 @@ void run_session(const SessionOptions& options) {
                     c.late_reads, c.spurious_edges, c.adc_timeouts, us(l.min_s), us(l.avg_s), l.p99_over ? ">" : "",
                     us(l.p99_s), us(l.max_s));
       GYROTC_LOG_INFO("%s", text);
+      if (options.selfcal_experiment) log_sweep_progress(sweep, st.casing_c);
       next_status += std::chrono::duration_cast<clock::duration>(
           std::chrono::duration<double>(config.output.status_interval_s));
     }
@@ -392,6 +438,7 @@ void run_session(const SessionOptions& options) {
     out << j.dump(2) << '\n';
     if (!out) throw RuntimeFailure("cannot write the summary to '" + options.summary_json + "'");
   }
+  return stopped_by;
 }
 
 }  // namespace gyrotc::app

@@ -74,3 +74,34 @@ TEST_CASE("a hold is the casing at one setpoint, TEC on, for most of the record;
   CHECK(findings.front().check == ScreenCheck::held);
   CHECK(checks(hold) == std::vector{ScreenCheck::uneven});  // the same record, no columns: only its bins
 }
+
+namespace {
+
+// Half a minute at +40 C, down to -20 C and back up at one rate, half a
+// minute more at +40 C (the self-calibration's rests): every bin crossed
+// once each way.
+Series there_and_back(double rate_c_per_min, double period_s) {
+  const Series down = ramp(rate_c_per_min, 60.0, period_s);
+  Series s;
+  auto add = [&s, period_s](double c) {
+    s.time_s.push_back(s.time_s.empty() ? 0.0 : s.time_s.back() + period_s);
+    s.sensor_c.push_back(c);
+  };
+  for (double t = 0.0; t < 30.0; t += period_s) add(40.0);
+  for (double c : down.sensor_c) add(20.0 - c);  // -20 + x -> 40 - x
+  for (double c : down.sensor_c) add(c);
+  for (double t = 0.0; t < 30.0; t += period_s) add(40.0);
+  return s;
+}
+
+}  // namespace
+
+TEST_CASE("a bin crossed once down and once up at one rate is settled: the die's lag cancels in its mean") {
+  CHECK(checks(ramp(0.8, 60.0, 1.0)) == std::vector{ScreenCheck::unsettled});  // one way: the lag stays
+  CHECK(checks(there_and_back(0.8, 1.0)).empty());
+}
+
+TEST_CASE("a bin crossed both ways faster than the crossing limit is refused however balanced") {
+  CHECK(checks(there_and_back(1.9, 1.0)).empty());
+  CHECK(checks(there_and_back(2.5, 1.0)) == std::vector{ScreenCheck::unsettled});
+}

@@ -28,7 +28,15 @@ struct ScreenLimits {
   double hold_band_c = 0.5;            // casing this close to the setpoint with the TEC on: held
   double max_held_fraction = 0.5;      // a record mostly held at one setpoint is a closed-loop run
   double rate_window_s = 60.0;         // the casing's rate of change, over this window
-  double max_rate_c_per_min = 0.5;     // the die lags the sensor: faster than this, a bin is not settled
+  // The die lags the sensor: a bin whose samples moved, on average, faster
+  // than this in one direction holds the bias of another temperature. The
+  // mean is signed: a bin crossed once up and once down at the same rate
+  // (the self-calibration's sweep) sees the lag shift its two halves by
+  // equal and opposite amounts, which cancel in its mean.
+  double max_rate_c_per_min = 0.5;
+  // However balanced, a bin crossed faster than this is not settled (the
+  // lag's cancellation holds only while the curve is straight over the lag).
+  double max_crossing_rate_c_per_min = 2.0;
   double min_span_c = 20.0;            // a narrower record cannot show the curve's shape
   std::size_t min_bins = 8;            // and the model needs points to be chosen by leave-one-out
   double max_bin_ratio = 10.0;         // fullest bin / median bin: more, and the points' noise differs wildly

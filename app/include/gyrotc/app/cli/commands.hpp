@@ -1,6 +1,7 @@
 #pragma once
 
 #include <CLI/CLI.hpp>
+#include <string>
 
 // Every `gyrotc <command>` registers itself through one of these;
 // add_gyrotc_commands() calls them in the order of --help. Each callback
@@ -14,6 +15,11 @@ void add_gyrotc_commands(CLI::App& cli);
 void add_identify_command(CLI::App& app);
 void add_probe_command(CLI::App& app);
 void add_fit_command(CLI::App& app);
+void add_calibrate_command(CLI::App& app);
+
+// `gyrotc fit --data RECORD --method auto --out OUT [--plot PLOT] [--json]`,
+// for `gyrotc calibrate`: the same refusals, fit, report and file.
+void fit_record_auto(const std::string& data, const std::string& out, const std::string& plot, bool json);
 void add_simulate_command(CLI::App& app);
 void add_tune_command(CLI::App& app);
 void add_allan_command(CLI::App& app);

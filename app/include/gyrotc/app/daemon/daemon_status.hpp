@@ -34,6 +34,7 @@ struct DaemonStatus {
   std::string hal;     // "sim" | "linux"
   std::string config;  // the configuration file
   std::string mode;    // "pid", "tec_off" (compensation only) or "experiment"
+  std::string experiment;  // mode "experiment": which ("identification", "self-calibration")
   double started_unix_s = 0.0;
   double written_unix_s = 0.0;
   double uptime_s = 0.0;

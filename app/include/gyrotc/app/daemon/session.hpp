@@ -22,13 +22,18 @@ struct SessionOptions {
   // the PID's place; the run ends when it does (or at duration_s / a signal).
   bool tune_experiment = false;
   double experiment_scale = 1.0;  // tune::ExperimentPlan::scaled: for units faster than the reference
+  // The self-calibration sweep of `gyrotc calibrate` (calibrate/sweep_experiment.hpp),
+  // likewise; at most one of the two.
+  bool selfcal_experiment = false;
 };
 
 // Runs the real-time runner on the configured board until the duration ends,
-// the identification experiment ends, or SIGINT/SIGTERM (SIGHUP reloads what config_reload.hpp says), then puts the
+// an experiment ends, or SIGINT/SIGTERM (SIGHUP reloads what config_reload.hpp says), then puts the
 // board in the safe state, prints the summary and returns (exit 0). Throws
 // InputError / RuntimeFailure, the board safe-off done.
-void run_session(const SessionOptions& options);
+// Returns how the run stopped: "SIGINT", "SIGTERM", "experiment finished" or
+// "duration reached".
+std::string run_session(const SessionOptions& options);
 
 // The TEC DAC to 0 A and the OPA548 disabled on the configured board, the
 // rate DAC to mid-scale if it can be (a warning if not). Only those devices

@@ -1,0 +1,124 @@
+#pragma once
+
+#include <atomic>
+#include <cstdint>
+#include <limits>
+
+#include "gyrotc/algorithms/control/tec_program.hpp"
+
+// The self-calibration experiment of `gyrotc calibrate` (issue 30): with the
+// gyro at rest, the unit's own bipolar TEC sweeps the casing through the
+// temperatures a chamber would (seed Section 4), below and above the
+// ambient, so the zero-bias curve can be measured in the field without a
+// chamber. It runs through the Controller like the identification
+// experiment (tune/experiment.hpp): on the board (`gyrotc record
+// --experiment selfcal`, `gyrotc calibrate --config`) and in the simulator
+// (`gyrotc simulate --profile selfcal`), under every fail-safe.
+//
+//   rest      TEC at 0 A: the starting casing temperature
+//   down      a target ramps from there down to low_c at rate_c_per_min; a
+//             PI tracks it
+//   dwell_low the target held: the die, which lags the sensor, catches up
+//   up        the ramp from the low end up to high_c
+//   dwell_high
+//   back      the ramp down to the starting temperature; then the TEC goes off
+//
+// Every temperature of the range is crossed once upwards and once downwards
+// at the same rate, so the die's lag behind the sensor shifts the two passes
+// by equal and opposite amounts and cancels in each temperature bin's mean
+// (`gyrotc fit` bins the record; fit::screen_calibration_record judges a bin
+// by its mean signed rate). Where the stage cannot follow the ramp (the
+// current at its limit and the casing a stall_c behind the target for
+// stall_s) that end is the end of the range: the range the stage reaches at
+// the present ambient is found during the run.
+namespace gyrotc::calibrate {
+
+struct SweepRange {
+  double low_c = 0.0;
+  double high_c = 0.0;
+};
+
+struct SweepPlan {
+  // The range asked for (casing, C). NaN: from below_ambient_c under the
+  // ambient at the start (the casing's reading without an ambient sensor) to
+  // above_setpoint_c over the controller's setpoint: what the unit sees in
+  // service (it warms from the ambient to the setpoint) with a margin, so
+  // the fit does not end at the edge of what it must compensate.
+  double low_c = std::numeric_limits<double>::quiet_NaN();
+  double high_c = std::numeric_limits<double>::quiet_NaN();
+  double below_ambient_c = 12.0;
+  double above_setpoint_c = 12.0;
+  // Never past this (the app: [failsafe] over_temp_c less a margin).
+  double ceiling_c = 75.0;
+  double rate_c_per_min = 0.6;  // the ramps' rate
+  double rest_s = 10.0;
+  double dwell_s = 300.0;       // at each end: 7 x the default plant's 40 s die time constant
+  double track_kp_a_per_c = 0.2;
+  double track_ki_a_per_c_s = 2e-3;
+  double stall_c = 2.0;
+  double stall_s = 300.0;
+
+  SweepRange range(double ambient_c, double setpoint_c) const noexcept;
+  // The longest the programme can run over `range`.
+  double max_duration_s(const SweepRange& range) const noexcept;
+};
+
+// Throws std::invalid_argument naming the field.
+void validate(const SweepPlan& plan);
+
+// The sweep never goes within this of the controller's over-temperature
+// fail-safe: the casing overshoots a ramp's end by a few tenths, and the
+// fail-safe would end the run.
+inline constexpr double kOverTempMarginC = 5.0;
+
+// The default plan under a fail-safe at over_temp_c.
+SweepPlan plan_below_over_temp(double over_temp_c);
+
+enum class SweepPhase : std::uint8_t { rest, down, dwell_low, up, dwell_high, back, done };
+const char* to_string(SweepPhase phase) noexcept;
+
+class SweepExperiment final : public control::TecProgram {
+ public:
+  explicit SweepExperiment(const SweepPlan& plan = {});
+
+  // Progress, readable from any thread while the runner's thread sweeps (the
+  // board's status lines): the phase, the ends reached (NaN until reached;
+  // an end the stage could not reach is where it stalled), the ramp's
+  // target and the time left at the ramp's rate (an estimate: a stall or a
+  // lagging casing adds to it).
+  SweepPhase phase() const noexcept { return phase_.load(std::memory_order_relaxed); }
+  double reached_low_c() const noexcept { return reached_low_c_.load(std::memory_order_relaxed); }
+  double reached_high_c() const noexcept { return reached_high_c_.load(std::memory_order_relaxed); }
+  double target_c() const noexcept { return target_shown_c_.load(std::memory_order_relaxed); }
+  double remaining_s() const noexcept { return remaining_s_.load(std::memory_order_relaxed); }
+
+  const SweepPlan& plan() const noexcept { return plan_; }
+  // The range asked for, once the rest is over (NaN before). The runner's
+  // thread only.
+  const SweepRange& range() const noexcept { return range_; }
+
+ private:
+  control::TecProgramOutput do_next(const control::TecProgramInput& in) noexcept override;
+  void enter(SweepPhase phase, double time_s) noexcept;
+  double track(const control::TecProgramInput& in, double dt_s) noexcept;
+  bool stalled(const control::TecProgramInput& in, double direction, double dt_s) noexcept;
+
+  double estimate_remaining_s(double time_s) const noexcept;
+
+  SweepPlan plan_;
+  std::atomic<SweepPhase> phase_{SweepPhase::rest};
+  double phase_start_s_ = 0.0;
+  double last_time_s_ = 0.0;
+  SweepRange range_;
+  double start_c_ = 0.0;
+  double target_c_ = 0.0;
+  double integral_a_ = 0.0;
+  double last_command_a_ = 0.0;
+  double stall_time_s_ = 0.0;
+  std::atomic<double> reached_low_c_;
+  std::atomic<double> reached_high_c_;
+  std::atomic<double> target_shown_c_;
+  std::atomic<double> remaining_s_;
+};
+
+}  // namespace gyrotc::calibrate

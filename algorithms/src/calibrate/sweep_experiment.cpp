@@ -1,0 +1,212 @@
+#include "gyrotc/algorithms/calibrate/sweep_experiment.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <stdexcept>
+#include <string>
+
+namespace gyrotc::calibrate {
+
+SweepRange SweepPlan::range(double ambient_c, double setpoint_c) const noexcept {
+  SweepRange r;
+  r.low_c = std::isnan(low_c) ? ambient_c - below_ambient_c : low_c;
+  r.high_c = std::min(std::isnan(high_c) ? setpoint_c + above_setpoint_c : high_c, ceiling_c);
+  return r;
+}
+
+double SweepPlan::max_duration_s(const SweepRange& r) const noexcept {
+  // From anywhere in the range: down to the low end, up to the high end,
+  // back; each end may add a stall before it is taken as the end.
+  return rest_s + 2.0 * std::max(0.0, r.high_c - r.low_c) / (rate_c_per_min / 60.0) + 2.0 * (dwell_s + stall_s);
+}
+
+void validate(const SweepPlan& p) {
+  auto require = [](bool ok, const char* field, const char* what) {
+    if (!ok) throw std::invalid_argument(std::string("sweep ") + field + " " + what);
+  };
+  auto positive = [](double v) { return std::isfinite(v) && v > 0.0; };
+  auto non_negative = [](double v) { return std::isfinite(v) && v >= 0.0; };
+  require(!std::isinf(p.low_c), "low_c", "must be a temperature (or unset)");
+  require(!std::isinf(p.high_c), "high_c", "must be a temperature (or unset)");
+  require(std::isnan(p.low_c) || std::isnan(p.high_c) || p.high_c - p.low_c >= 5.0, "high_c",
+          "must be at least 5 C above low_c");
+  require(non_negative(p.below_ambient_c), "below_ambient_c", "must be zero or positive");
+  require(non_negative(p.above_setpoint_c), "above_setpoint_c", "must be zero or positive");
+  require(std::isfinite(p.ceiling_c), "ceiling_c", "must be a temperature");
+  require(positive(p.rate_c_per_min) && p.rate_c_per_min <= 5.0, "rate_c_per_min", "must be within (0, 5]");
+  require(non_negative(p.rest_s), "rest_s", "must be zero or positive");
+  require(non_negative(p.dwell_s), "dwell_s", "must be zero or positive");
+  require(non_negative(p.track_kp_a_per_c), "track_kp_a_per_c", "must be zero or positive");
+  require(positive(p.track_ki_a_per_c_s), "track_ki_a_per_c_s", "must be positive");
+  require(positive(p.stall_c), "stall_c", "must be positive");
+  require(positive(p.stall_s), "stall_s", "must be positive");
+}
+
+SweepPlan plan_below_over_temp(double over_temp_c) {
+  SweepPlan plan;
+  plan.ceiling_c = over_temp_c - kOverTempMarginC;
+  return plan;
+}
+
+const char* to_string(SweepPhase phase) noexcept {
+  switch (phase) {
+    case SweepPhase::rest: return "rest";
+    case SweepPhase::down: return "down";
+    case SweepPhase::dwell_low: return "dwell_low";
+    case SweepPhase::up: return "up";
+    case SweepPhase::dwell_high: return "dwell_high";
+    case SweepPhase::back: return "back";
+    case SweepPhase::done: return "done";
+  }
+  return "?";
+}
+
+SweepExperiment::SweepExperiment(const SweepPlan& plan)
+    : plan_(plan),
+      reached_low_c_(std::numeric_limits<double>::quiet_NaN()),
+      reached_high_c_(std::numeric_limits<double>::quiet_NaN()),
+      target_shown_c_(std::numeric_limits<double>::quiet_NaN()),
+      remaining_s_(std::numeric_limits<double>::quiet_NaN()) {
+  range_.low_c = range_.high_c = std::numeric_limits<double>::quiet_NaN();
+  validate(plan_);
+}
+
+void SweepExperiment::enter(SweepPhase phase, double time_s) noexcept {
+  phase_.store(phase, std::memory_order_relaxed);
+  phase_start_s_ = time_s;
+  stall_time_s_ = 0.0;
+}
+
+// PI on the moving target, integrating only while the output is not held at
+// a limit in the error's direction (anti-windup).
+double SweepExperiment::track(const control::TecProgramInput& in, double dt_s) noexcept {
+  const double error_c = target_c_ - in.casing_c;
+  const double unclamped = plan_.track_kp_a_per_c * error_c + integral_a_;
+  const bool pushing_high = unclamped >= in.max_a && error_c > 0.0;
+  const bool pushing_low = unclamped <= in.min_a && error_c < 0.0;
+  if (!pushing_high && !pushing_low) integral_a_ += plan_.track_ki_a_per_c_s * error_c * dt_s;
+  integral_a_ = std::clamp(integral_a_, in.min_a, in.max_a);
+  return std::clamp(plan_.track_kp_a_per_c * error_c + integral_a_, in.min_a, in.max_a);
+}
+
+// The ramp's target waits while the casing is stall_c behind it (it never
+// runs away from the casing, so the casing's rate stays at most the ramp's);
+// the end is reached when the stage, at its limit, has not caught up for
+// stall_s.
+bool SweepExperiment::stalled(const control::TecProgramInput& in, double direction, double dt_s) noexcept {
+  const double behind_c = (target_c_ - in.casing_c) * direction;
+  const double limit_a = direction > 0.0 ? in.max_a : in.min_a;
+  const bool at_limit = std::fabs(last_command_a_ - limit_a) <= 1e-3 * std::max(1.0, std::fabs(limit_a));
+  if (behind_c > plan_.stall_c && at_limit) {
+    stall_time_s_ += dt_s;
+  } else {
+    stall_time_s_ = 0.0;
+  }
+  return stall_time_s_ >= plan_.stall_s;
+}
+
+double SweepExperiment::estimate_remaining_s(double time_s) const noexcept {
+  const double rate_c_per_s = plan_.rate_c_per_min / 60.0;
+  const double low_c = std::isnan(reached_low_c()) ? range_.low_c : reached_low_c();
+  const double high_c = std::isnan(reached_high_c()) ? range_.high_c : reached_high_c();
+  const double dwell_left_s = std::max(0.0, plan_.dwell_s - (time_s - phase_start_s_));
+  switch (phase()) {
+    case SweepPhase::rest:
+      return std::numeric_limits<double>::quiet_NaN();  // the range is not known yet
+    case SweepPhase::down:
+      return ((target_c_ - low_c) + (high_c - low_c) + (high_c - start_c_)) / rate_c_per_s + 2.0 * plan_.dwell_s;
+    case SweepPhase::dwell_low:
+      return dwell_left_s + (2.0 * high_c - low_c - start_c_) / rate_c_per_s + plan_.dwell_s;
+    case SweepPhase::up:
+      return (2.0 * high_c - target_c_ - start_c_) / rate_c_per_s + plan_.dwell_s;
+    case SweepPhase::dwell_high:
+      return dwell_left_s + (high_c - start_c_) / rate_c_per_s;
+    case SweepPhase::back:
+      return std::max(0.0, target_c_ - start_c_) / rate_c_per_s;
+    case SweepPhase::done:
+      return 0.0;
+  }
+  return 0.0;
+}
+
+control::TecProgramOutput SweepExperiment::do_next(const control::TecProgramInput& in) noexcept {
+  const double dt_s = std::max(0.0, in.time_s - last_time_s_);
+  last_time_s_ = in.time_s;
+  const double rate_c_per_s = plan_.rate_c_per_min / 60.0;
+  // One ramp step towards `end_c`; true once the target is there.
+  auto ramp = [&](double end_c, double direction) {
+    const double behind_c = (target_c_ - in.casing_c) * direction;
+    if (behind_c <= plan_.stall_c) target_c_ += direction * rate_c_per_s * dt_s;
+    if ((target_c_ - end_c) * direction >= 0.0) {
+      target_c_ = end_c;
+      return true;
+    }
+    return false;
+  };
+
+  switch (phase_.load(std::memory_order_relaxed)) {
+    case SweepPhase::rest:
+      if (in.time_s - phase_start_s_ >= plan_.rest_s) {
+        range_ = plan_.range(std::isnan(in.ambient_c) ? in.casing_c : in.ambient_c, in.setpoint_c);
+        if (!(range_.high_c - range_.low_c >= 5.0)) {
+          // The ceiling is below the range's low end: nothing to sweep.
+          enter(SweepPhase::done, in.time_s);
+          last_command_a_ = 0.0;
+          return {0.0, true};
+        }
+        start_c_ = std::clamp(in.casing_c, range_.low_c, range_.high_c);
+        target_c_ = in.casing_c;
+        enter(SweepPhase::down, in.time_s);
+      } else {
+        last_command_a_ = 0.0;
+        return {0.0, false};
+      }
+      break;
+    case SweepPhase::down:
+      if (ramp(range_.low_c, -1.0)) {
+        reached_low_c_.store(range_.low_c, std::memory_order_relaxed);
+        enter(SweepPhase::dwell_low, in.time_s);
+      } else if (stalled(in, -1.0, dt_s)) {
+        reached_low_c_.store(in.casing_c, std::memory_order_relaxed);
+        target_c_ = in.casing_c;
+        enter(SweepPhase::dwell_low, in.time_s);
+      }
+      break;
+    case SweepPhase::dwell_low:
+      if (in.time_s - phase_start_s_ >= plan_.dwell_s) enter(SweepPhase::up, in.time_s);
+      break;
+    case SweepPhase::up:
+      if (ramp(range_.high_c, 1.0)) {
+        reached_high_c_.store(range_.high_c, std::memory_order_relaxed);
+        enter(SweepPhase::dwell_high, in.time_s);
+      } else if (stalled(in, 1.0, dt_s)) {
+        reached_high_c_.store(in.casing_c, std::memory_order_relaxed);
+        target_c_ = in.casing_c;
+        enter(SweepPhase::dwell_high, in.time_s);
+      }
+      break;
+    case SweepPhase::dwell_high:
+      if (in.time_s - phase_start_s_ >= plan_.dwell_s) {
+        start_c_ = std::clamp(start_c_, reached_low_c(), reached_high_c());
+        enter(SweepPhase::back, in.time_s);
+      }
+      break;
+    case SweepPhase::back:
+      if (ramp(start_c_, -1.0) || stalled(in, -1.0, dt_s)) enter(SweepPhase::done, in.time_s);
+      break;
+    case SweepPhase::done:
+      break;
+  }
+  if (phase() == SweepPhase::done) {
+    last_command_a_ = 0.0;
+    remaining_s_.store(0.0, std::memory_order_relaxed);
+    return {0.0, true};
+  }
+  target_shown_c_.store(target_c_, std::memory_order_relaxed);
+  remaining_s_.store(estimate_remaining_s(in.time_s), std::memory_order_relaxed);
+  last_command_a_ = track(in, dt_s);
+  return {last_command_a_, false};
+}
+
+}  // namespace gyrotc::calibrate

@@ -1,0 +1,24 @@
+#pragma once
+
+#include <string>
+
+// What `gyrotc calibrate` does around the sweep (issue 30): whether a
+// record's range covers what the unit will see in service.
+namespace gyrotc::app {
+
+struct RecordRange {
+  double low_c = 0.0;      // the casing's (sensor_c) span
+  double high_c = 0.0;
+  double ambient_c = 0.0;   // the median ambient_c (NaN without the column)
+  double setpoint_c = 0.0;  // setpoint_c (NaN without the column)
+};
+
+// Reads sensor_c, ambient_c and setpoint_c of a board record. InputError
+// naming the file when sensor_c is missing.
+RecordRange read_record_range(const std::string& path);
+
+// "" when the range covers the ambient of the run up to the setpoint (the
+// unit in service warms from one to the other); else why not, one clause.
+std::string service_range_gap(const RecordRange& r);
+
+}  // namespace gyrotc::app

@@ -1,0 +1,121 @@
+// `gyrotc calibrate`: the zero-bias calibration without a chamber (issue
+// 30). The unit's own TEC sweeps the casing below and above the ambient
+// (calibrate/sweep_experiment.hpp), then the record is fitted as `gyrotc fit
+// --method auto` fits it, and refused when its range does not cover what the
+// unit sees in service.
+#include <cstdio>
+#include <filesystem>
+#include <memory>
+#include <string>
+#include <system_error>
+
+#include "gyrotc/app/cli/cli_main.hpp"
+#include "gyrotc/app/cli/commands.hpp"
+#include "gyrotc/app/daemon/config.hpp"
+#include "gyrotc/app/daemon/session.hpp"
+#include "gyrotc/app/support/errors.hpp"
+#include "gyrotc/app/support/output_path.hpp"
+#include "gyrotc/app/workflows/self_calibration.hpp"
+
+namespace gyrotc::app {
+namespace {
+
+struct CalibrateOptions {
+  std::string config;
+  std::string data;
+  std::string out;
+  std::string plot;
+  std::string record;
+  bool install = false;
+  bool allow_non_rt = false;
+  bool json = false;
+};
+
+// The record's range against the service range, then the fit.
+void fit_and_check(const std::string& record, const CalibrateOptions& o) {
+  const RecordRange range = read_record_range(record);
+  const std::string gap = service_range_gap(range);
+  if (!gap.empty()) {
+    throw InputError(record + ": cannot calibrate for service: " + gap +
+                     "; run the sweep at a lower ambient, or calibrate in a chamber (gyrotc fit)");
+  }
+  fit_record_auto(record, o.out, o.plot, o.json);
+}
+
+// Atomically in place of the configuration's calibration file.
+void install(const std::string& calibration, const DaemonConfig& config) {
+  if (config.calibration_file.empty()) {
+    throw InputError(config.source + ": [calibration] file is not set: nowhere to install " + calibration);
+  }
+  const std::filesystem::path target(config.calibration_file);
+  const std::filesystem::path staged = target.string() + ".new";
+  std::error_code ec;
+  std::filesystem::copy_file(calibration, staged, std::filesystem::copy_options::overwrite_existing, ec);
+  if (!ec) std::filesystem::rename(staged, target, ec);
+  if (ec) throw RuntimeFailure(target.string() + ": cannot install the calibration: " + ec.message());
+  std::printf("installed %s as %s; a running service takes it on `systemctl reload gyrotc` (SIGHUP)\n",
+              calibration.c_str(), target.c_str());
+}
+
+void run(const CalibrateOptions& o) {
+  prepare_output_file(o.out, "--out");
+  if (!o.plot.empty()) prepare_output_file(o.plot, "--plot");
+  if (!o.data.empty()) {
+    if (o.install) throw InputError("--install: only with --config (the board whose calibration file it replaces)");
+    fit_and_check(o.data, o);
+    return;
+  }
+  const DaemonConfig config = load_daemon_config(o.config);
+  SessionOptions session;
+  session.config_path = o.config;
+  session.record_csv = o.record.empty() ? o.out + ".record.csv" : o.record;
+  session.stream = false;
+  session.allow_non_rt = o.allow_non_rt;
+  session.selfcal_experiment = true;
+  prepare_output_file(session.record_csv, "--record");
+  const std::string stopped_by = run_session(session);
+  if (stopped_by != "experiment finished") {
+    throw RuntimeFailure("the sweep stopped (" + stopped_by + ") before it finished: nothing fitted; its record is " +
+                         session.record_csv);
+  }
+  fit_and_check(session.record_csv, o);
+  if (o.install) install(o.out, config);
+}
+
+}  // namespace
+
+void add_calibrate_command(CLI::App& app) {
+  auto o = std::make_shared<CalibrateOptions>();
+  CLI::App* cmd = app.add_subcommand(
+      "calibrate",
+      "Calibrate the zero-bias model without a chamber: with the gyro at rest, the unit's own TEC sweeps the\n"
+      "casing from 12 C below the ambient to 12 C above the setpoint (never within 5 C of [failsafe]\n"
+      "over_temp_c; an end the stage cannot reach at this ambient is where it stalls) and back, at 0.6 C/min,\n"
+      "every temperature crossed once each way so the die's lag cancels (at most 4 h at 20 C); then fits the\n"
+      "record as `gyrotc fit --method auto` (nested leave-one-out) and writes the calibration file. Refused\n"
+      "when the range reached does not cover the ambient of the run up to the setpoint.\n"
+      "On the board: --config (the service stopped: the run holds the board; every fail-safe on, safe-off on\n"
+      "any signal). Without hardware: --data, the record of `gyrotc simulate --profile selfcal --out DIR`.");
+  auto* config = cmd->add_option("-c,--config", o->config,
+                                 "run the sweep on the board of this configuration (as `gyrotc record`)");
+  auto* data = cmd->add_option("--data", o->data, "fit a sweep already recorded (DIR/record.csv of simulate)");
+  config->excludes(data);
+  cmd->add_option("--out", o->out, "the calibration file (TOML) to write")->required();
+  cmd->add_option("--plot", o->plot, "the calibration report (SVG), as `gyrotc fit --plot`");
+  cmd->add_option("--record", o->record, "--config: where the sweep's record goes (default: OUT.record.csv)");
+  cmd->add_flag("--install", o->install,
+                "--config: put the calibration in place of the configuration's [calibration] file");
+  cmd->add_flag("--allow-non-rt", o->allow_non_rt,
+                "--config: run without SCHED_FIFO / locked memory when not permitted (a warning)");
+  cmd->add_flag("--json", o->json, "print the fit's summary as one JSON object");
+  cmd->callback([o] {
+    if (o->config.empty() && o->data.empty()) {
+      throw CLI::ValidationError("calibrate: give --config FILE (run the sweep on the board) or --data RECORD "
+                                 "(a recorded sweep)");
+    }
+    if (!o->record.empty() && o->config.empty()) throw InputError("--record: only with --config");
+    run(*o);
+  });
+}
+
+}  // namespace gyrotc::app

@@ -1,0 +1,57 @@
+#include "gyrotc/app/workflows/self_calibration.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <limits>
+#include <vector>
+
+#include "gyrotc/app/formats/csv_table.hpp"
+#include "gyrotc/app/support/errors.hpp"
+
+namespace gyrotc::app {
+
+namespace {
+
+double median_of(std::vector<double> v) {
+  std::erase_if(v, [](double x) { return !std::isfinite(x); });
+  if (v.empty()) return std::numeric_limits<double>::quiet_NaN();
+  std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2), v.end());
+  return v[v.size() / 2];
+}
+
+}  // namespace
+
+RecordRange read_record_range(const std::string& path) {
+  const CsvTable table = CsvTable::read(path);
+  if (!table.has("sensor_c")) throw InputError(path + ": missing column 'sensor_c' (a board record has it)");
+  const std::vector<double> sensor = table.numbers("sensor_c");
+  if (sensor.empty()) throw InputError(path + ": no rows");
+  RecordRange r;
+  const auto [lo, hi] = std::minmax_element(sensor.begin(), sensor.end());
+  r.low_c = *lo;
+  r.high_c = *hi;
+  r.ambient_c = table.has("ambient_c") ? median_of(table.numbers_or_nan("ambient_c")) : std::numeric_limits<double>::quiet_NaN();
+  r.setpoint_c = table.has("setpoint_c") ? median_of(table.numbers_or_nan("setpoint_c")) : std::numeric_limits<double>::quiet_NaN();
+  return r;
+}
+
+std::string service_range_gap(const RecordRange& r) {
+  char buf[320];
+  if (std::isfinite(r.ambient_c) && r.low_c > r.ambient_c) {
+    std::snprintf(buf, sizeof buf,
+                  "the casing spans %.1f .. %.1f C, above the run's ambient %.1f C: a unit warming from the ambient "
+                  "passes temperatures the calibration never saw",
+                  r.low_c, r.high_c, r.ambient_c);
+    return buf;
+  }
+  if (std::isfinite(r.setpoint_c) && r.high_c < r.setpoint_c) {
+    std::snprintf(buf, sizeof buf,
+                  "the casing spans %.1f .. %.1f C, short of the setpoint %.1f C the unit is held at in service",
+                  r.low_c, r.high_c, r.setpoint_c);
+    return buf;
+  }
+  return "";
+}
+
+}  // namespace gyrotc::app

@@ -1,0 +1,84 @@
+// `gyrotc calibrate --config` on the simulated board in real time (issue 30):
+// the self-calibration sweep runs through the real-time runner, reports its
+// progress, and a signal in the middle of it ends in safe-off with nothing
+// fitted and the exit status saying so.
+#include <signal.h>
+
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "gyrotc_catch.hpp"
+#include "gyrotc_process.hpp"
+#include "test_paths.hpp"
+
+using namespace gyrotc::test;
+
+// The test starts a `gyrotc` child with the runner's threads: native only
+// under qemu (see link.cmake).
+#if !defined(GYROTC_NO_GUEST_THREADS)
+
+namespace {
+
+// tec_a of every row of a record CSV (the board's column order).
+std::vector<double> tec_column(const std::string& path) {
+  std::vector<double> out;
+  std::ifstream in(path);
+  std::string line;
+  if (!std::getline(in, line)) return out;
+  while (std::getline(in, line)) {
+    std::stringstream cells(line);
+    std::string cell;
+    for (int column = 0; column < 6 && std::getline(cells, cell, ','); ++column) {
+      if (column == 5) out.push_back(std::stod(cell));
+    }
+  }
+  return out;
+}
+
+}  // namespace
+
+TEST_CASE("calibrate --config cools first through the real-time runner and a SIGTERM ends it in safe-off with "
+          "nothing fitted and exit 1") {
+  const std::string dir = gyrotc::test::scratch_dir();
+  const std::string out = dir + "/calibrate_board.toml";
+  const std::string record = dir + "/calibrate_board.csv";
+  const std::string err = dir + "/calibrate_board.err";
+  std::remove(out.c_str());
+  std::remove(record.c_str());
+  const pid_t pid = spawn_gyrotc({"calibrate", "--config", gyrotc::test::config_file("gyrotc-sim.toml"), "--out", out,
+                                  "--record", record, "--allow-non-rt"},
+                                 err);
+  REQUIRE(pid > 0);
+  REQUIRE(wait_for_text(err, "replaced by the self-calibration sweep"));
+  // After its rest (0 A) the sweep cools: the casing ramps below the ambient.
+  bool cooling = false;
+  for (int i = 0; i < 900 && !cooling; ++i) {
+    for (double a : tec_column(record)) cooling = cooling || a < -0.02;
+    if (!cooling) std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  }
+  CHECK(cooling);
+  REQUIRE(wait_for_text(err, "self-calibration: down"));
+  kill(pid, SIGTERM);
+  CHECK(exit_status(pid) == 1);
+  const std::string text = read_text(err);
+  CHECK(text.find("SIGTERM after") != std::string::npos);
+  CHECK(text.find("TEC at 0 A, OPA548 disabled (safe-off)") != std::string::npos);
+  CHECK(text.find("the sweep stopped (SIGTERM) before it finished: nothing fitted") != std::string::npos);
+  CHECK_FALSE(std::filesystem::exists(out));
+}
+
+#endif
+
+TEST_CASE("calibrate without --config or --data is a usage error naming both") {
+  const std::string dir = gyrotc::test::scratch_dir();
+  const std::string err = dir + "/calibrate_usage.err";
+  const pid_t pid = spawn_gyrotc({"calibrate", "--out", dir + "/unused.toml"}, err);
+  CHECK(exit_status(pid) == 2);
+  CHECK(read_text(err).find("give --config FILE (run the sweep on the board) or --data RECORD") != std::string::npos);
+}
