@@ -3,11 +3,18 @@
 // (calibrate/sweep_experiment.hpp), then the record is fitted as `gyrotc fit
 // --method auto` fits it, and refused when its range does not cover what the
 // unit sees in service.
+#include <signal.h>
+
+#include <chrono>
 #include <cstdio>
 #include <filesystem>
+#include <fstream>
 #include <memory>
+#include <sstream>
 #include <string>
 #include <system_error>
+
+#include <nlohmann/json.hpp>
 
 #include "gyrotc/app/cli/cli_main.hpp"
 #include "gyrotc/app/cli/commands.hpp"
@@ -42,7 +49,25 @@ void fit_and_check(const std::string& record, const CalibrateOptions& o) {
   fit_record_auto(record, o.out, o.plot, o.json);
 }
 
-// Atomically in place of the configuration's calibration file.
+// The pid of the daemon that runs on this configuration's board, from its
+// status file (written once a second while it runs), or 0.
+int running_daemon_pid(const DaemonConfig& config) {
+  std::ifstream in(config.output.status_file);
+  if (config.output.status_file.empty() || !in) return 0;
+  std::stringstream text;
+  text << in.rdbuf();
+  const nlohmann::json j = nlohmann::json::parse(text.str(), nullptr, false);
+  if (!j.is_object() || j.value("format", "") != "gyrotc-status" || !j.value("running", false)) return 0;
+  const double now_s =
+      std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
+  const int pid = j.value("pid", 0);
+  const double written_s = j.value("written_unix_s", 0.0);
+  if (pid <= 0 || !(now_s - written_s <= 5.0) || ::kill(pid, 0) != 0) return 0;
+  return pid;
+}
+
+// Atomically in place of the configuration's calibration file; a daemon
+// running on it reloads (SIGHUP, as `systemctl reload gyrotc`).
 void install(const std::string& calibration, const DaemonConfig& config) {
   if (config.calibration_file.empty()) {
     throw InputError(config.source + ": [calibration] file is not set: nowhere to install " + calibration);
@@ -53,16 +78,30 @@ void install(const std::string& calibration, const DaemonConfig& config) {
   std::filesystem::copy_file(calibration, staged, std::filesystem::copy_options::overwrite_existing, ec);
   if (!ec) std::filesystem::rename(staged, target, ec);
   if (ec) throw RuntimeFailure(target.string() + ": cannot install the calibration: " + ec.message());
-  std::printf("installed %s as %s; a running service takes it on `systemctl reload gyrotc` (SIGHUP)\n",
-              calibration.c_str(), target.c_str());
+  std::printf("installed %s as %s\n", calibration.c_str(), target.c_str());
+  const int pid = running_daemon_pid(config);
+  if (pid == 0) {
+    std::printf("no gyrotc daemon runs on %s: it takes the calibration when it starts\n", config.source.c_str());
+    return;
+  }
+  if (::kill(pid, SIGHUP) != 0) {
+    throw RuntimeFailure("installed, but the running daemon (pid " + std::to_string(pid) +
+                         ") could not be told to reload: `systemctl reload gyrotc`");
+  }
+  std::printf("the running daemon (pid %d) reloads it (SIGHUP; its log says whether it took it)\n", pid);
 }
 
 void run(const CalibrateOptions& o) {
   prepare_output_file(o.out, "--out");
   if (!o.plot.empty()) prepare_output_file(o.plot, "--plot");
   if (!o.data.empty()) {
-    if (o.install) throw InputError("--install: only with --config (the board whose calibration file it replaces)");
+    if (o.install && o.config.empty()) {
+      throw InputError("--install: needs --config, the board whose calibration file it replaces");
+    }
+    if (!o.record.empty()) throw InputError("--record: not with --data (no sweep is run)");
+    if (o.allow_non_rt) throw InputError("--allow-non-rt: not with --data (no sweep is run)");
     fit_and_check(o.data, o);
+    if (o.install) install(o.out, load_daemon_config(o.config));
     return;
   }
   const DaemonConfig config = load_daemon_config(o.config);
@@ -96,15 +135,18 @@ void add_calibrate_command(CLI::App& app) {
       "when the range reached does not cover the ambient of the run up to the setpoint.\n"
       "On the board: --config (the service stopped: the run holds the board; every fail-safe on, safe-off on\n"
       "any signal). Without hardware: --data, the record of `gyrotc simulate --profile selfcal --out DIR`.");
-  auto* config = cmd->add_option("-c,--config", o->config,
-                                 "run the sweep on the board of this configuration (as `gyrotc record`)");
-  auto* data = cmd->add_option("--data", o->data, "fit a sweep already recorded (DIR/record.csv of simulate)");
-  config->excludes(data);
+  cmd->add_option("-c,--config", o->config,
+                  "run the sweep on the board of this configuration (as `gyrotc record`); with --data, only the\n"
+                  "board whose calibration --install replaces");
+  cmd->add_option("--data", o->data,
+                  "fit a sweep already recorded (`record --experiment selfcal`, or DIR/record.csv of `simulate\n"
+                  "--profile selfcal`) instead of running one");
   cmd->add_option("--out", o->out, "the calibration file (TOML) to write")->required();
   cmd->add_option("--plot", o->plot, "the calibration report (SVG), as `gyrotc fit --plot`");
   cmd->add_option("--record", o->record, "--config: where the sweep's record goes (default: OUT.record.csv)");
   cmd->add_flag("--install", o->install,
-                "--config: put the calibration in place of the configuration's [calibration] file");
+                "put the calibration in place of --config's [calibration] file; a daemon running on that\n"
+                "configuration reloads it (SIGHUP)");
   cmd->add_flag("--allow-non-rt", o->allow_non_rt,
                 "--config: run without SCHED_FIFO / locked memory when not permitted (a warning)");
   cmd->add_flag("--json", o->json, "print the fit's summary as one JSON object");
@@ -113,7 +155,6 @@ void add_calibrate_command(CLI::App& app) {
       throw CLI::ValidationError("calibrate: give --config FILE (run the sweep on the board) or --data RECORD "
                                  "(a recorded sweep)");
     }
-    if (!o->record.empty() && o->config.empty()) throw InputError("--record: only with --config");
     run(*o);
   });
 }

@@ -73,6 +73,43 @@ TEST_CASE("calibrate --config cools first through the real-time runner and a SIG
   CHECK_FALSE(std::filesystem::exists(out));
 }
 
+TEST_CASE("calibrate --install puts the calibration in place of the configuration's and the running daemon reloads it") {
+  const std::string dir = gyrotc::test::scratch_dir();
+  const std::string config = dir + "/calibrate_install.toml";
+  const std::string calibration = dir + "/calibrate_install_calibration.toml";
+  const std::string status = dir + "/calibrate_install_status.json";
+  const std::string err = dir + "/calibrate_install_daemon.err";
+  std::ofstream(calibration) << read_text(gyrotc::test::data_file("calibration_table2.toml"));
+  {
+    std::string text = read_text(gyrotc::test::config_file("gyrotc-sim.toml"));
+    const auto set = [&text](const std::string& from, const std::string& to) {
+      text.replace(text.find(from), from.size(), to);
+    };
+    set("file = \"calibration.toml\"", "file = \"" + calibration + "\"");
+    set("stream = \"stdout\"", "stream = \"none\"");
+    set("status_file = \"/tmp/gyrotc-sim.status.json\"", "status_file = \"" + status + "\"");
+    std::ofstream(config) << text;
+  }
+  // A sweep recorded earlier (the simulated unit at 16 C, the configuration's ambient).
+  const std::string sweep_err = dir + "/calibrate_install_sweep.err";
+  REQUIRE(exit_status(spawn_gyrotc({"simulate", "--profile", "selfcal", "--ambient-c", "16", "--sample-rate-hz", "50",
+                                    "--out", dir + "/calibrate_install_sweep"},
+                                   sweep_err)) == 0);
+  const pid_t daemon = spawn_gyrotc({"run", "--config", config, "--allow-non-rt", "--duration", "60"}, err);
+  REQUIRE(daemon > 0);
+  REQUIRE(wait_for_text(err, "running on"));
+  REQUIRE(wait_for_text(status, "\"running\": true"));
+  const std::string out = dir + "/calibrate_install_new.toml";
+  const std::string calibrate_err = dir + "/calibrate_install.err";
+  CHECK(exit_status(spawn_gyrotc({"calibrate", "--data", dir + "/calibrate_install_sweep/record.csv", "--config", config,
+                                  "--install", "--out", out},
+                                 calibrate_err)) == 0);
+  CHECK(read_text(calibration) == read_text(out));
+  CHECK(wait_for_text(err, "SIGHUP: calibration reloaded from " + calibration));
+  kill(daemon, SIGTERM);
+  CHECK(exit_status(daemon) == 0);
+}
+
 #endif
 
 TEST_CASE("calibrate without --config or --data is a usage error naming both") {
