@@ -9,6 +9,7 @@
 #include <chrono>
 #include <fstream>
 #include <iterator>
+#include <sstream>
 #include <string>
 #include <thread>
 #include <vector>
@@ -52,6 +53,23 @@ inline bool wait_for_text(const std::string& path, const std::string& text) {
     std::this_thread::sleep_for(std::chrono::milliseconds(100));
   }
   return false;
+}
+
+// tec_a of every row the child has written so far to a board record CSV
+// (`record`, `calibrate --config`: the sixth column).
+inline std::vector<double> record_tec_a(const std::string& path) {
+  std::vector<double> out;
+  std::ifstream in(path);
+  std::string line;
+  if (!std::getline(in, line)) return out;
+  while (std::getline(in, line)) {
+    std::stringstream cells(line);
+    std::string cell;
+    for (int column = 0; column < 6 && std::getline(cells, cell, ','); ++column) {
+      if (column == 5) out.push_back(std::stod(cell));
+    }
+  }
+  return out;
 }
 
 inline int exit_status(pid_t pid) {

@@ -372,9 +372,9 @@ void run(const SimulateOptions& o) {
   if (!o.plant.empty()) setup.plant = load_plant(o.plant);
   // The self-calibration starts from a unit that has sat in the room.
   if (selfcal) setup.plant.initial_temp_c = o.ambient_c;
-  const ControllerConfig experiment_controller = controller_for("paper", setup.plant);
-  const calibrate::SweepPlan sweep_plan = calibrate::plan_below_over_temp(experiment_controller.limits.over_temp_c);
-  const calibrate::SweepRange sweep_range = sweep_plan.range(o.ambient_c, experiment_controller.setpoint_c);
+  setup.controller = controller_for(experiment ? std::string("paper") : o.controller, setup.plant);
+  const calibrate::SweepPlan sweep_plan = calibrate::plan_below_over_temp(setup.controller.limits.over_temp_c);
+  const calibrate::SweepRange sweep_range = sweep_plan.range(o.ambient_c, setup.controller.setpoint_c);
   const model::ChamberProfile profile =
       tune_experiment ? tune_experiment_room(o.ambient_c, plan)
       : selfcal       ? model::ChamberProfile({{"selfcal", 0.0, 2.0 * sweep_plan.max_duration_s(sweep_range),
@@ -383,7 +383,6 @@ void run(const SimulateOptions& o) {
   setup.seed = o.seed;
   setup.sample_rate_hz = o.sample_rate_hz;
   setup.adc_model = o.adc_model == "bit" ? hal::SimAdcModel::bit_level : hal::SimAdcModel::transaction;
-  setup.controller = controller_for(experiment ? std::string("paper") : o.controller, setup.plant);
   tune::IdentificationExperiment program(plan);
   calibrate::SweepExperiment sweep(sweep_plan);
   if (tune_experiment) setup.program = &program;
@@ -489,14 +488,15 @@ void add_simulate_command(CLI::App& app) {
       "ADS1251/AD5060/DS18B20/OPA548 simulators) in virtual time, much faster than real time.");
   cmd->add_option("--profile", options->profile,
                   "chamber profile: fig26 (seed Section 6.2), table2 (-40..80 C in 5 C steps, 60 min "
-                  "soaks, seed Section 4.2), a CSV file (time_s,ambient_c or the fig26 segment format), or "
+                  "soaks, seed Section 4.2), a CSV file (time_s,ambient_c or the fig26 segment format), "
                   "selfcal: the self-calibration sweep of `gyrotc calibrate` (the TEC sweeps the casing from 12 C "
                   "below --ambient-c to 12 C above the setpoint and back, at most 4 h at 20 C; writes record.csv "
-                  "into --out), "
+                  "into --out), or "
                   "tune: the identification experiment of `gyrotc tune` (<= 3 h at --ambient-c; writes "
                   "record.csv, the board's record, into --out)")
       ->capture_default_str();
-  cmd->add_option("--ambient-c", options->ambient_c, "--profile tune and selfcal: the room's (chamber's) constant temperature")
+  cmd->add_option("--ambient-c", options->ambient_c,
+                  "--profile tune and selfcal: the room's (chamber's) constant temperature")
       ->check(CLI::Range(-40.0, 80.0))
       ->capture_default_str();
   cmd->add_option("--experiment-scale", options->experiment_scale,

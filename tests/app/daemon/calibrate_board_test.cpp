@@ -1,17 +1,16 @@
-// `gyrotc calibrate --config` on the simulated board in real time (issue 30):
-// the self-calibration sweep runs through the real-time runner, reports its
-// progress, and a signal in the middle of it ends in safe-off with nothing
-// fitted and the exit status saying so.
+// `gyrotc calibrate` with gyrotc child processes on the simulated board in
+// real time (issue 30): the self-calibration sweep runs through the real-time
+// runner, reports its progress, and a signal in the middle of it ends in
+// safe-off with nothing fitted and the exit status saying so; --install
+// replaces the configuration's calibration and a running daemon reloads it.
 #include <signal.h>
 
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
-#include <sstream>
 #include <string>
 #include <thread>
-#include <vector>
 
 #include "gyrotc_catch.hpp"
 #include "gyrotc_process.hpp"
@@ -22,26 +21,6 @@ using namespace gyrotc::test;
 // The test starts a `gyrotc` child with the runner's threads: native only
 // under qemu (see link.cmake).
 #if !defined(GYROTC_NO_GUEST_THREADS)
-
-namespace {
-
-// tec_a of every row of a record CSV (the board's column order).
-std::vector<double> tec_column(const std::string& path) {
-  std::vector<double> out;
-  std::ifstream in(path);
-  std::string line;
-  if (!std::getline(in, line)) return out;
-  while (std::getline(in, line)) {
-    std::stringstream cells(line);
-    std::string cell;
-    for (int column = 0; column < 6 && std::getline(cells, cell, ','); ++column) {
-      if (column == 5) out.push_back(std::stod(cell));
-    }
-  }
-  return out;
-}
-
-}  // namespace
 
 TEST_CASE("calibrate --config cools first through the real-time runner and a SIGTERM ends it in safe-off with "
           "nothing fitted and exit 1") {
@@ -59,7 +38,7 @@ TEST_CASE("calibrate --config cools first through the real-time runner and a SIG
   // After its rest (0 A) the sweep cools: the casing ramps below the ambient.
   bool cooling = false;
   for (int i = 0; i < 900 && !cooling; ++i) {
-    for (double a : tec_column(record)) cooling = cooling || a < -0.02;
+    for (double a : record_tec_a(record)) cooling = cooling || a < -0.02;
     if (!cooling) std::this_thread::sleep_for(std::chrono::milliseconds(100));
   }
   CHECK(cooling);

@@ -6,10 +6,8 @@
 #include <chrono>
 #include <cstdio>
 #include <fstream>
-#include <sstream>
 #include <string>
 #include <thread>
-#include <vector>
 
 #include <nlohmann/json.hpp>
 
@@ -22,26 +20,6 @@ using namespace gyrotc::test;
 // The test starts a `gyrotc` child with the runner's threads: native only
 // under qemu (see link.cmake).
 #if !defined(GYROTC_NO_GUEST_THREADS)
-
-namespace {
-
-// tec_a of every row of a record CSV (the board's column order).
-std::vector<double> tec_column(const std::string& path) {
-  std::vector<double> out;
-  std::ifstream in(path);
-  std::string line;
-  if (!std::getline(in, line)) return out;
-  while (std::getline(in, line)) {
-    std::stringstream cells(line);
-    std::string cell;
-    for (int column = 0; column < 6 && std::getline(cells, cell, ','); ++column) {
-      if (column == 5) out.push_back(std::stod(cell));
-    }
-  }
-  return out;
-}
-
-}  // namespace
 
 TEST_CASE("record --experiment tune drives the TEC through the real-time runner; SIGTERM mid-experiment ends in safe-off") {
   const std::string dir = gyrotc::test::scratch_dir();
@@ -59,7 +37,7 @@ TEST_CASE("record --experiment tune drives the TEC through the real-time runner;
   // the setpoint: wait (bounded) for that in the record, then stop it there.
   bool driving = false;
   for (int i = 0; i < 300 && !driving; ++i) {
-    for (double a : tec_column(csv)) driving = driving || a > 0.5;
+    for (double a : record_tec_a(csv)) driving = driving || a > 0.5;
     if (!driving) std::this_thread::sleep_for(std::chrono::milliseconds(100));
   }
   CHECK(driving);
