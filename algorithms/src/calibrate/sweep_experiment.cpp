@@ -78,6 +78,10 @@ void SweepExperiment::enter(SweepPhase phase, double time_s) noexcept {
   stall_time_s_ = 0.0;
 }
 
+void SweepExperiment::note_extreme(double casing_c, double direction) noexcept {
+  if ((casing_c - extreme_c_) * direction > 0.0) extreme_c_ = casing_c;
+}
+
 // PI on the moving target, integrating only while the output is not held at
 // a limit in the error's direction (anti-windup).
 double SweepExperiment::track(const control::TecProgramInput& in, double dt_s) noexcept {
@@ -91,19 +95,27 @@ double SweepExperiment::track(const control::TecProgramInput& in, double dt_s) n
 }
 
 // The ramp's target waits while the casing is stall_c behind it (it never
-// runs away from the casing, so the casing's rate stays at most the ramp's);
-// the end is reached when the stage, at its limit, has not caught up for
-// stall_s.
+// runs away from the casing, so the casing's rate stays at most the ramp's).
+// The end is reached when the stage has been at its limit with the casing
+// behind for stall_s and the casing went less than a quarter of the ramp's
+// way in that time: a stage approaching its limit slows down long before it
+// stops, so "stopped" would take hours to see. A casing approaching its
+// limit with time constant tau stalls rate/4 x tau short of it.
 bool SweepExperiment::stalled(const control::TecProgramInput& in, double direction, double dt_s) noexcept {
   const double behind_c = (target_c_ - in.casing_c) * direction;
   const double limit_a = direction > 0.0 ? in.max_a : in.min_a;
   const bool at_limit = std::fabs(last_command_a_ - limit_a) <= 1e-3 * std::max(1.0, std::fabs(limit_a));
-  if (behind_c > plan_.stall_c && at_limit) {
-    stall_time_s_ += dt_s;
-  } else {
+  if (!(behind_c > 0.5 * plan_.stall_c && at_limit)) {
     stall_time_s_ = 0.0;
+    return false;
   }
-  return stall_time_s_ >= plan_.stall_s;
+  if (stall_time_s_ == 0.0) stall_from_c_ = in.casing_c;
+  stall_time_s_ += dt_s;
+  if (stall_time_s_ < plan_.stall_s) return false;
+  const double progress_c = (in.casing_c - stall_from_c_) * direction;
+  if (progress_c < 0.25 * plan_.rate_c_per_min / 60.0 * stall_time_s_) return true;
+  stall_time_s_ = 0.0;  // still following, if slowly: judge the next stall_s
+  return false;
 }
 
 double SweepExperiment::estimate_remaining_s(double time_s) const noexcept {
@@ -157,6 +169,7 @@ control::TecProgramOutput SweepExperiment::do_next(const control::TecProgramInpu
         }
         start_c_ = std::clamp(in.casing_c, range_.low_c, range_.high_c);
         target_c_ = in.casing_c;
+        extreme_c_ = in.casing_c;
         enter(SweepPhase::down, in.time_s);
       } else {
         last_command_a_ = 0.0;
@@ -164,30 +177,34 @@ control::TecProgramOutput SweepExperiment::do_next(const control::TecProgramInpu
       }
       break;
     case SweepPhase::down:
+      note_extreme(in.casing_c, -1.0);
       if (ramp(range_.low_c, -1.0)) {
-        reached_low_c_.store(range_.low_c, std::memory_order_relaxed);
         enter(SweepPhase::dwell_low, in.time_s);
       } else if (stalled(in, -1.0, dt_s)) {
-        reached_low_c_.store(in.casing_c, std::memory_order_relaxed);
         target_c_ = in.casing_c;
         enter(SweepPhase::dwell_low, in.time_s);
       }
       break;
     case SweepPhase::dwell_low:
-      if (in.time_s - phase_start_s_ >= plan_.dwell_s) enter(SweepPhase::up, in.time_s);
+      note_extreme(in.casing_c, -1.0);
+      if (in.time_s - phase_start_s_ >= plan_.dwell_s) {
+        reached_low_c_.store(extreme_c_, std::memory_order_relaxed);
+        enter(SweepPhase::up, in.time_s);
+      }
       break;
     case SweepPhase::up:
+      note_extreme(in.casing_c, 1.0);
       if (ramp(range_.high_c, 1.0)) {
-        reached_high_c_.store(range_.high_c, std::memory_order_relaxed);
         enter(SweepPhase::dwell_high, in.time_s);
       } else if (stalled(in, 1.0, dt_s)) {
-        reached_high_c_.store(in.casing_c, std::memory_order_relaxed);
         target_c_ = in.casing_c;
         enter(SweepPhase::dwell_high, in.time_s);
       }
       break;
     case SweepPhase::dwell_high:
+      note_extreme(in.casing_c, 1.0);
       if (in.time_s - phase_start_s_ >= plan_.dwell_s) {
+        reached_high_c_.store(extreme_c_, std::memory_order_relaxed);
         start_c_ = std::clamp(start_c_, reached_low_c(), reached_high_c());
         enter(SweepPhase::back, in.time_s);
       }

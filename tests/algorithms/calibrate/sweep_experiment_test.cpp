@@ -86,8 +86,8 @@ TEST_CASE("a stage that reaches the range: down, dwell, up, dwell, back to the s
   }
   CHECK(order == std::vector{SweepPhase::rest, SweepPhase::down, SweepPhase::dwell_low, SweepPhase::up,
                              SweepPhase::dwell_high, SweepPhase::back, SweepPhase::done});
-  CHECK(sweep.reached_low_c() == 8.0);
-  CHECK(sweep.reached_high_c() == 67.0);
+  CHECK(sweep.reached_low_c() == Approx(8.0).margin(0.5));  // the casing's overshoot at the turn
+  CHECK(sweep.reached_high_c() == Approx(67.0).margin(0.5));
   const auto [lo, hi] = std::minmax_element(t.casing_c.begin(), t.casing_c.end());
   CHECK(*lo == Approx(8.0).margin(0.3));
   CHECK(*hi == Approx(67.0).margin(0.3));
@@ -131,10 +131,36 @@ TEST_CASE("a stage that cannot cool as far as asked ends the range where it stal
   SweepExperiment sweep;
   const Trace t = run(sweep, weak);
   REQUIRE(t.finished);
-  CHECK(sweep.reached_low_c() > 8.0);
-  CHECK(sweep.reached_low_c() == Approx(20.0 - 2.0 / 0.3).margin(1.2));
-  CHECK(sweep.reached_high_c() == Approx(20.0 + 2.0 / 0.3).margin(1.2));
+  // It holds 13.3 .. 26.7 C at most, approached with tau = 1000 s: the
+  // stall is called a quarter of the ramp's rate x tau (2.5 C) short of it.
+  CHECK(sweep.reached_low_c() > 20.0 - 2.0 / 0.3);
+  CHECK(sweep.reached_low_c() < 20.0 - 2.0 / 0.3 + 3.5);
+  CHECK(sweep.reached_high_c() < 20.0 + 2.0 / 0.3);
+  CHECK(sweep.reached_high_c() > 20.0 + 2.0 / 0.3 - 3.5);
   CHECK(t.time_s.back() <= sweep.plan().max_duration_s(sweep.range()));
+}
+
+TEST_CASE("a stage creeping towards its limit is taken as stalled when it falls behind, not hours later when it stops") {
+  Casing slow;
+  slow.loss_w_per_k = 0.1;  // tau 3000 s
+  slow.gain_w_per_a = 3.0;  // 1 A holds 30 C from the ambient at most: 50 C, short of 67 C
+  SweepExperiment sweep;
+  const Trace t = run(sweep, slow);
+  REQUIRE(t.finished);
+  // Called a quarter of the ramp's rate x tau (7.5 C) short of the 50 C it creeps towards.
+  CHECK(sweep.reached_high_c() < 50.0);
+  CHECK(sweep.reached_high_c() > 50.0 - 7.5 - 1.0);
+  CHECK(t.time_s.back() <= sweep.plan().max_duration_s(sweep.range()));
+}
+
+TEST_CASE("an end the casing lagged short of is reported where the casing was, not where the target was") {
+  Casing weak;
+  weak.gain_w_per_a = 2.0;
+  SweepExperiment sweep;
+  const Trace t = run(sweep, weak);
+  const auto [lo, hi] = std::minmax_element(t.casing_c.begin(), t.casing_c.end());
+  CHECK(sweep.reached_low_c() == Approx(*lo).margin(0.07));  // a DS18B20 step
+  CHECK(sweep.reached_high_c() == Approx(*hi).margin(0.07));
 }
 
 TEST_CASE("a ceiling below the range's low end sweeps nothing and ends at once with the TEC off") {

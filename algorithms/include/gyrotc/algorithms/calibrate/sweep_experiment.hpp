@@ -28,9 +28,11 @@
 // by equal and opposite amounts and cancels in each temperature bin's mean
 // (`gyrotc fit` bins the record; fit::screen_calibration_record judges a bin
 // by its mean signed rate). Where the stage cannot follow the ramp (the
-// current at its limit and the casing a stall_c behind the target for
-// stall_s) that end is the end of the range: the range the stage reaches at
-// the present ambient is found during the run.
+// current at its limit, the casing more than half a stall_c behind the
+// target and less than a quarter of the ramp's way further after stall_s) that end
+// is the end of the range: the range the stage reaches at the present
+// ambient is found during the run. An end reached is the casing's extreme
+// there (a casing that lags the target stops short of it).
 namespace gyrotc::calibrate {
 
 struct SweepRange {
@@ -82,8 +84,8 @@ class SweepExperiment final : public control::TecProgram {
   explicit SweepExperiment(const SweepPlan& plan = {});
 
   // Progress, readable from any thread while the runner's thread sweeps (the
-  // board's status lines): the phase, the ends reached (NaN until reached;
-  // an end the stage could not reach is where it stalled), the ramp's
+  // board's status lines): the phase, the ends reached (NaN until the dwell
+  // there is over: the casing's extreme at that end), the ramp's
   // target and the time left at the ramp's rate (an estimate: a stall or a
   // lagging casing adds to it).
   SweepPhase phase() const noexcept { return phase_.load(std::memory_order_relaxed); }
@@ -102,6 +104,7 @@ class SweepExperiment final : public control::TecProgram {
   void enter(SweepPhase phase, double time_s) noexcept;
   double track(const control::TecProgramInput& in, double dt_s) noexcept;
   bool stalled(const control::TecProgramInput& in, double direction, double dt_s) noexcept;
+  void note_extreme(double casing_c, double direction) noexcept;
 
   double estimate_remaining_s(double time_s) const noexcept;
 
@@ -115,6 +118,8 @@ class SweepExperiment final : public control::TecProgram {
   double integral_a_ = 0.0;
   double last_command_a_ = 0.0;
   double stall_time_s_ = 0.0;
+  double stall_from_c_ = 0.0;  // the casing when the current stall began
+  double extreme_c_ = 0.0;     // the casing's extreme since the ramp towards an end began
   std::atomic<double> reached_low_c_;
   std::atomic<double> reached_high_c_;
   std::atomic<double> target_shown_c_;
