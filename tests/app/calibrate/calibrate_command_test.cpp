@@ -8,6 +8,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -89,17 +90,17 @@ double worst_held_bias_dps(const std::string& calibration) {
   return nlohmann::json::parse(printed).at("bias_compensated_max_abs_dps").get<double>();
 }
 
-// The record's rows (after the header) for which keep(sensor_c, row) holds.
-std::string filtered_record(const std::string& name, bool (*keep)(double sensor_c, std::size_t row)) {
+// The record's rows (after the header) for which keep(sensor_c) holds, in order.
+std::string filtered_record(const std::string& name, const std::function<bool(double sensor_c)>& keep) {
   std::ifstream in(selfcal_record());
   const std::string p = kDir + "/" + name;
   std::ofstream out(p);
   std::string line;
   std::getline(in, line);
   out << line << "\n";
-  for (std::size_t row = 0; std::getline(in, line); ++row) {
+  while (std::getline(in, line)) {
     const double sensor_c = std::stod(line.substr(line.find(',') + 1));
-    if (keep(sensor_c, row)) out << line << "\n";
+    if (keep(sensor_c)) out << line << "\n";
   }
   return p;
 }
@@ -127,8 +128,8 @@ TEST_CASE("the self-calibration record is one gyrotc fit takes as it is: no refu
 
 TEST_CASE("calibrate refuses a sweep that stopped short of the setpoint, and writes nothing") {
   // The rows until the casing first passed 50 C: a stage too weak for the setpoint's side.
-  static bool passed = false;
-  const std::string short_record = filtered_record("short.csv", [](double c, std::size_t) {
+  bool passed = false;
+  const std::string short_record = filtered_record("short.csv", [&passed](double c) {
     passed = passed || c > 50.0;
     return !passed;
   });
@@ -141,7 +142,7 @@ TEST_CASE("calibrate refuses a sweep that stopped short of the setpoint, and wri
 }
 
 TEST_CASE("calibrate refuses a sweep that never went below the ambient it ran at") {
-  const std::string warm_record = filtered_record("warm.csv", [](double c, std::size_t) { return c > 21.0; });
+  const std::string warm_record = filtered_record("warm.csv", [](double c) { return c > 21.0; });
   const std::string e = input_error_of([&] {
     (void)run_command(gyrotc::app::add_calibrate_command, "calibrate",
                       {"--data", warm_record, "--out", kDir + "/warm.toml"});
