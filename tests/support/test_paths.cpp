@@ -4,7 +4,9 @@
 
 #include <cstdlib>
 #include <filesystem>
+#include <fstream>
 #include <sstream>
+#include <stdexcept>
 
 namespace gyrotc::test {
 
@@ -54,6 +56,34 @@ std::string scratch_dir() {
   };
   static const Scratch scratch;
   return scratch.dir.string();
+}
+
+namespace {
+
+void replace_once(std::string& text, const std::string& from, const std::string& to) {
+  const std::size_t at = text.find(from);
+  if (at == std::string::npos) throw std::runtime_error("gyrotc-sim.toml has no line " + from);
+  text.replace(at, from.size(), to);
+}
+
+}  // namespace
+
+std::string sim_config_text(const std::string& name) {
+  std::ifstream in(config_file("gyrotc-sim.toml"));
+  std::stringstream text;
+  text << in.rdbuf();
+  std::string config = text.str();
+  replace_once(config, "status_file = \"/tmp/gyrotc-sim.status.json\"",
+               "status_file = \"" + (fs::path(scratch_dir()) / (name + ".status.json")).string() + "\"");
+  return config;
+}
+
+std::string sim_config_copy(const std::string& name) {
+  std::string config = sim_config_text(name);
+  replace_once(config, "file = \"calibration.toml\"", "file = \"" + config_file("calibration.toml") + "\"");
+  const fs::path path = fs::path(scratch_dir()) / (name + ".toml");
+  std::ofstream(path) << config;
+  return path.string();
 }
 
 }  // namespace gyrotc::test

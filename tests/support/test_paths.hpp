@@ -24,5 +24,13 @@ std::string gyrotc_exe();
 // A folder of this test process's own under the temp folder, for the files
 // a test writes (created on first use).
 std::string scratch_dir();
+// The text of config/gyrotc-sim.toml with its status file scratch_dir()/
+// NAME.status.json: the shipped file's /tmp status path is shared by every
+// daemon started on it, and a test's daemon must not overwrite another's (or
+// a doc test's, which shows `gyrotc status` on the shipped file).
+std::string sim_config_text(const std::string& name);
+// That text, its calibration named by full path, written to
+// scratch_dir()/NAME.toml; returns the path.
+std::string sim_config_copy(const std::string& name);
 
 }  // namespace gyrotc::test

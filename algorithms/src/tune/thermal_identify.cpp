@@ -15,6 +15,13 @@
 namespace gyrotc::tune {
 namespace {
 
+// The screen for a current without effect (identify_thermal's refusal) reads
+// the Peltier term's t-ratio against the residual's own Newey-West long-run
+// covariance, not against the noise model of the reported standard errors:
+// on a fit far above the floor that model takes what the model cannot follow
+// for slow noise of hours, and a current that moves the casing by degrees
+// would be refused (tune_suite's network 9).
+//
 // The Newey-West window: Andrews' (1991) AR(1) plug-in for the Bartlett
 // kernel, 1.1447 (alpha n)^(1/3), alpha = 4 rho^2 / ((1 - rho)^2 (1 + rho)^2)
 // with rho the residual's lag-1 autocorrelation; but at least twice the lag
@@ -530,18 +537,21 @@ ThermalFit identify_thermal(const TuneRecord& record, double experiment_scale) {
   fit.effective_samples = identify::effective_sample_size(n, fit.lag1_autocorrelation);
   fit.ljung_box_p = identify::ljung_box_p(residual, 20);
 
-  // Covariance of theta: the sandwich (J'J)^-1 S (J'J)^-1 with S the
-  // Newey-West long-run covariance of the scores J_t r_t (hac_covariance).
-  // The residuals are correlated over minutes (the DS18B20's steps, sensor
-  // noise with its own time constant, what the model does not hold): the
-  // AR(1) inflation of the white-noise covariance this replaced left 95 %
-  // intervals that held the truth in under half of the records of
+  // Covariance of theta: the sandwich under the residual's noise, fitted as
+  // white + first-order with the fit's own projection accounted for
+  // (residual_noise.hpp). A Newey-West window over the residual, which this
+  // replaced, missed the slow noise the fit had taken into its curve: 95 %
+  // intervals held the truth in 70-80 % of the records of
   // tests/algorithms/tune/standard_error_coverage_test.cpp.
-  fit.bandwidth_rows = hac_bandwidth(residual, fit.lag1_autocorrelation);
+  const Eigen::MatrixXd jacobian = identify::model_jacobian(model, sf.theta, sf.beta, nullptr);
+  fit.noise = fit_residual_noise(jacobian, sf.residual);
+  // The screen's standard error of log(Peltier term) (see hac_covariance).
+  const double peltier_screen_se = std::sqrt(std::max(
+      0.0, hac_covariance(jacobian, sf.residual, sf.covariance_unscaled, hac_bandwidth(residual, fit.lag1_autocorrelation))(
+               kLogPeltier, kLogPeltier)));
   fit.covariance = Eigen::MatrixXd::Zero(kCount, kCount);
   fit.covariance.topLeftCorner(static_cast<Eigen::Index>(k_params), static_cast<Eigen::Index>(k_params)) =
-      hac_covariance(identify::model_jacobian(model, sf.theta, sf.beta, nullptr), sf.residual,
-                     sf.covariance_unscaled, fit.bandwidth_rows);
+      noise_covariance(jacobian, sf.covariance_unscaled, fit.noise);
 
   auto sd = [&](std::size_t j) { return std::sqrt(std::max(0.0, fit.covariance(static_cast<Eigen::Index>(j),
                                                                                static_cast<Eigen::Index>(j)))); };
@@ -597,20 +607,21 @@ ThermalFit identify_thermal(const TuneRecord& record, double experiment_scale) {
   if (!ambient_measured) fit.estimates.push_back(plain_estimate("ambient_c", "C", kAmbient, 5.0));
 
   const Estimate& peltier = fit.estimates.front();
-  if (!(peltier.value > kMinPeltierTRatio * peltier.std_error) && fit.rms_c > 2.0 * fit.quantisation_rms_c) {
+  const double screen_t = 1.0 / std::max(peltier_screen_se, 1e-300);  // log scale: value / se = 1 / se(log)
+  if (!(screen_t > kMinPeltierTRatio) && fit.rms_c > 2.0 * fit.quantisation_rms_c) {
     // A fit far above the floor: the current's effect may be hidden by what
     // the model cannot follow rather than absent; say both.
     throw std::invalid_argument(fmt("the TEC current has no measurable effect on the casing temperature beyond what "
-                                    "the model cannot follow (Peltier term %.3g +/- %.3g; residual rms %.3f C, %.0fx "
-                                    "the DS18B20's quantisation): is the TEC connected, the casing sensor on the "
-                                    "casing, and did the experiment run undisturbed?",
-                                    peltier.value, peltier.std_error, fit.rms_c, fit.rms_c / fit.quantisation_rms_c));
+                                    "the model cannot follow (Peltier term %.3g, %.2g times its standard error; "
+                                    "residual rms %.3f C, %.0fx the DS18B20's quantisation): is the TEC connected, the "
+                                    "casing sensor on the casing, and did the experiment run undisturbed?",
+                                    peltier.value, screen_t, fit.rms_c, fit.rms_c / fit.quantisation_rms_c));
   }
-  if (!(peltier.value > kMinPeltierTRatio * peltier.std_error)) {
+  if (!(screen_t > kMinPeltierTRatio)) {
     throw std::invalid_argument(fmt("the TEC current has no measurable effect on the casing temperature (Peltier "
-                                    "term %.3g +/- %.3g): is the TEC connected and the casing sensor on the "
-                                    "casing?",
-                                    peltier.value, peltier.std_error));
+                                    "term %.3g, %.2g times its standard error): is the TEC connected and the casing "
+                                    "sensor on the casing?",
+                                    peltier.value, screen_t));
   }
   return fit;
 }

@@ -240,7 +240,9 @@ nlohmann::json tune_json(const TuneResult& r) {
               {"r_squared", f.r_squared},
               {"lag1_autocorrelation", f.lag1_autocorrelation},
               {"effective_samples", f.effective_samples},
-              {"covariance_bandwidth_rows", f.bandwidth_rows},
+              {"noise_white_c", std::sqrt(f.noise.white_var)},
+              {"noise_slow_c", std::sqrt(f.noise.slow_var)},
+              {"noise_slow_tau_s", f.noise.slow_tau_rows * f.duration_s / static_cast<double>(std::max<std::size_t>(1, f.samples - 1))},
               {"ljung_box_p", f.ljung_box_p},
               {"ambient_measured", f.ambient_measured},
               {"rail_reached", f.rail_reached}};

@@ -6,6 +6,7 @@
 //
 // What the fit's standard errors are worth is measured by the hidden case
 // "[.coverage]" (docs/TUNING.md quotes it): 95 % intervals over 50 records.
+#include <array>
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
@@ -112,28 +113,45 @@ TEST_CASE("on noisy records the fit reaches the noise floor, not a minimum besid
   }
 }
 
-TEST_CASE("the covariance window spans the residual's correlation, not only its lag-1 step") {
-  // A slow sensor noise (100 s) under the nearly white DS18B20 steps.
+TEST_CASE("the noise model finds a slow sensor noise under the DS18B20's steps") {
+  // 0.03 C with a 100 s time constant under the nearly white steps.
   const tune::ThermalFit fit = tune::identify_thermal(record(7, {0.03, 100.0}));
   CHECK(fit.lag1_autocorrelation < 0.9);
-  CHECK(fit.bandwidth_rows >= 100);
+  INFO("slow part " << std::sqrt(fit.noise.slow_var) << " C, " << fit.noise.slow_tau_rows << " rows");
+  CHECK(fit.noise.slow_tau_rows > 50.0);
+  CHECK(fit.noise.slow_tau_rows < 200.0);
+  CHECK(std::sqrt(fit.noise.slow_var) > 0.02);
+  CHECK(std::sqrt(fit.noise.slow_var) < 0.045);
 }
 
-TEST_CASE("coverage of tune's 95 % intervals on 50 records with known truth", "[.coverage]") {
-  // Three sensor noises (0.01/0.03 C, 10/100 s), 50 seeds; prints the share
-  // of intervals value +/- 1.96 se that hold the truth, per parameter.
-  int covered[std::size(kNames)] = {};
-  constexpr int kRecords = 50;
-  for (int s = 0; s < kRecords; ++s) {
+// How many of 50 records (seeds first_seed..first_seed+49; three sensor
+// noises: 0.01/0.03 C, 10/100 s) have value +/- 1.96 se holding the truth,
+// per parameter.
+std::array<int, std::size(kNames)> covered_of_50(std::uint64_t first_seed) {
+  std::array<int, std::size(kNames)> covered{};
+  for (int s = 0; s < 50; ++s) {
     const SensorNoise noise{s % 3 == 0 ? 0.01 : 0.03, s % 2 == 0 ? 10.0 : 100.0};
-    const tune::ThermalFit fit = tune::identify_thermal(record(100 + static_cast<std::uint64_t>(s), noise));
+    const tune::ThermalFit fit = tune::identify_thermal(record(first_seed + static_cast<std::uint64_t>(s), noise));
     for (std::size_t i = 0; i < std::size(kNames); ++i) {
       for (const tune::Estimate& e : fit.estimates) {
         if (e.name == kNames[i] && std::fabs(e.value - truth_of(e.name)) <= 1.96 * e.std_error) ++covered[i];
       }
     }
   }
+  return covered;
+}
+
+TEST_CASE("tune's 95 % intervals hold the truth in at least 90 % of 50 records", "[.coverage]") {
+  // Seeds 100..149 were used while developing the noise model; 1000..1049
+  // were run only to measure it. The check is on the latter, with nothing
+  // added to the intervals.
+  const auto development = covered_of_50(100);
+  const auto test = covered_of_50(1000);
   for (std::size_t i = 0; i < std::size(kNames); ++i) {
-    std::printf("%-18s %2d/%d covered\n", kNames[i], covered[i], kRecords);
+    std::printf("%-18s development %2d/50, test %2d/50\n", kNames[i], development[i], test[i]);
+  }
+  for (std::size_t i = 0; i < std::size(kNames); ++i) {
+    INFO(kNames[i] << ": " << test[i] << " of 50 covered");
+    CHECK(test[i] >= 45);
   }
 }

@@ -30,7 +30,7 @@ TEST_CASE("calibrate --config cools first through the real-time runner and a SIG
   const std::string err = dir + "/calibrate_board.err";
   std::remove(out.c_str());
   std::remove(record.c_str());
-  const pid_t pid = spawn_gyrotc({"calibrate", "--config", gyrotc::test::config_file("gyrotc-sim.toml"), "--out", out,
+  const pid_t pid = spawn_gyrotc({"calibrate", "--config", gyrotc::test::sim_config_copy("calibrate_board_config"), "--out", out,
                                   "--record", record, "--allow-non-rt"},
                                  err);
   REQUIRE(pid > 0);

@@ -120,8 +120,7 @@ TEST_CASE("SIGTERM to a running `gyrotc run` on the simulated board: exit 0, TEC
   const std::string summary = dir + "/daemon_sigterm_summary.json";
   const std::string stream = dir + "/daemon_sigterm_stream.csv";
   {
-    std::ifstream in(kSimConfig);
-    std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    std::string text = gyrotc::test::sim_config_text("daemon_sigterm");
     // Lines to a file (not the test's stdout), every 0.2 s.
     const std::string from = "stream = \"stdout\"";
     text.replace(text.find(from), from.size(), "stream = \"file\"\npath = \"" + stream + "\"");
@@ -220,7 +219,7 @@ TEST_CASE("SIGHUP reloads the calibration file, an invalid one is rejected, logg
   const std::string err = dir + "/daemon_sighup.err";
   std::ofstream(calibration) << read_text(gyrotc::test::data_file("calibration_table2.toml"));
   {
-    std::string text = read_text(kSimConfig);
+    std::string text = gyrotc::test::sim_config_text("daemon_sighup");
     const std::string from = "file = \"calibration.toml\"";
     text.replace(text.find(from), from.size(), "file = \"" + calibration + "\"");
     const std::string stream = "stream = \"stdout\"";
@@ -245,7 +244,7 @@ TEST_CASE("SIGHUP applies a new setpoint and gains, and names a changed key that
   const std::string config = dir + "/daemon_sighup_control.toml";
   const std::string err = dir + "/daemon_sighup_control.err";
   const auto write_config = [&](double setpoint_c, int seed) {
-    std::string text = read_text(kSimConfig);
+    std::string text = gyrotc::test::sim_config_text("daemon_sighup_gains");
     const auto set = [&text](const std::string& from, const std::string& to) {
       text.replace(text.find(from), from.size(), to);
     };
@@ -314,7 +313,7 @@ TEST_CASE("the daemon's own CSV record moves to .1 past record_max_mb and starts
   const std::string csv = dir + "/daemon_rotate.csv";
   std::filesystem::remove(csv + ".1");
   {
-    std::string text = read_text(kSimConfig);
+    std::string text = gyrotc::test::sim_config_text("daemon_rotate");
     const auto set = [&text](const std::string& from, const std::string& to) {
       text.replace(text.find(from), from.size(), to);
     };
@@ -351,7 +350,8 @@ TEST_CASE("gyrotc record writes the columns gyrotc fit reads, one row per period
   const std::string dir = gyrotc::test::scratch_dir();
   const std::string csv = dir + "/daemon_record.csv";
   std::remove(csv.c_str());
-  REQUIRE(exit_status(spawn_gyrotc({"record", "--config", kSimConfig, "--out", csv, "--duration", "3", "--pid", "off",
+  REQUIRE(exit_status(spawn_gyrotc({"record", "--config", gyrotc::test::sim_config_copy("daemon_record_config"), "--out", csv,
+                                    "--duration", "3", "--pid", "off",
                                     "--allow-non-rt"},
                                    dir + "/daemon_record.err")) == 0);
   std::ifstream in(csv);

@@ -28,7 +28,7 @@ TEST_CASE("record --experiment tune drives the TEC through the real-time runner;
   const std::string err = dir + "/record_experiment.err";
   std::remove(csv.c_str());
   std::remove(summary.c_str());
-  const pid_t pid = spawn_gyrotc({"record", "--config", gyrotc::test::config_file("gyrotc-sim.toml"),
+  const pid_t pid = spawn_gyrotc({"record", "--config", gyrotc::test::sim_config_copy("record_experiment_config"),
                                   "--experiment", "tune", "--out", csv, "--allow-non-rt", "--summary-json", summary},
                                  err);
   REQUIRE(pid > 0);

@@ -6,6 +6,7 @@
 #include <string>
 #include <vector>
 
+#include "gyrotc/algorithms/tune/residual_noise.hpp"
 #include "gyrotc/algorithms/tune/thermal_model.hpp"
 
 // Identifies the ThermalModel of one unit from its own record (issue 23): the
@@ -52,9 +53,8 @@ struct ThermalFit {
   double quantisation_rms_c = 0.0625 / 3.4641016151377544;  // DS18B20 step / sqrt(12)
   double lag1_autocorrelation = 0.0;
   double effective_samples = 0.0;
-  // Rows of the Newey-West window of the covariance (Andrews' AR(1) rule,
-  // at least twice the lag where the residual's autocorrelation dies out).
-  std::size_t bandwidth_rows = 0;
+  // The noise the covariance assumes (residual_noise.hpp).
+  ResidualNoise noise;
   double ljung_box_p = 0.0;
   bool rail_reached = false;   // commands the identified rail clipped
   double max_command_a = 0.0;  // largest |tec_a| of the record

@@ -1,0 +1,148 @@
+#include "gyrotc/algorithms/tune/residual_noise.hpp"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <limits>
+#include <vector>
+
+namespace gyrotc::tune {
+namespace {
+
+// R x for R_ts = phi^|t-s| (a first-order process of unit variance), by a
+// forward and a backward filter: O(n) per column.
+Eigen::MatrixXd apply_first_order(const Eigen::MatrixXd& x, double phi) {
+  const Eigen::Index n = x.rows();
+  Eigen::MatrixXd forward = x;
+  Eigen::MatrixXd backward = x;
+  for (Eigen::Index t = 1; t < n; ++t) forward.row(t) += phi * forward.row(t - 1);
+  for (Eigen::Index t = n - 2; t >= 0; --t) backward.row(t) += phi * backward.row(t + 1);
+  return forward + backward - x;
+}
+
+// S x with S the symmetric lag-l shift: (x_{t+l} + x_{t-l}) / 2.
+Eigen::MatrixXd shift(const Eigen::MatrixXd& x, Eigen::Index lag) {
+  const Eigen::Index n = x.rows();
+  Eigen::MatrixXd y = Eigen::MatrixXd::Zero(n, x.cols());
+  if (lag == 0) return x;
+  if (lag >= n) return y;
+  y.topRows(n - lag) += 0.5 * x.bottomRows(n - lag);
+  y.bottomRows(n - lag) += 0.5 * x.topRows(n - lag);
+  return y;
+}
+
+// x' S_l x = sum_t x_t x_{t+l}.
+double lagged_sum(const Eigen::VectorXd& x, Eigen::Index lag) {
+  const Eigen::Index n = x.size();
+  if (lag >= n) return 0.0;
+  return x.head(n - lag).dot(x.tail(n - lag));
+}
+
+// E[(Me)' S_l (Me)] for e ~ (0, C), M = I - QQ':
+// tr(S_l C) - 2 tr(Q' C S_l Q) + tr((Q' S_l Q)(Q' C Q)).
+double expected_lagged_sum(Eigen::Index n, Eigen::Index lag, double gamma_lag, const Eigen::MatrixXd& cq,
+                           const Eigen::MatrixXd& qcq, const Eigen::MatrixXd& sq, const Eigen::MatrixXd& qsq) {
+  return static_cast<double>(n - lag) * gamma_lag - 2.0 * cq.cwiseProduct(sq).sum() + (qsq * qcq).trace();
+}
+
+}  // namespace
+
+ResidualNoise fit_residual_noise(const Eigen::MatrixXd& jacobian, const Eigen::VectorXd& residual) {
+  const Eigen::Index n = jacobian.rows();
+  const Eigen::Index k = jacobian.cols();
+  // An orthonormal basis of the Jacobian's columns (scaled first: the
+  // parameters' units differ by orders of magnitude).
+  Eigen::MatrixXd scaled = jacobian;
+  for (Eigen::Index j = 0; j < k; ++j) {
+    const double norm = scaled.col(j).norm();
+    if (norm > 0.0) scaled.col(j) /= norm;
+  }
+  const Eigen::HouseholderQR<Eigen::MatrixXd> qr(scaled);
+  const Eigen::MatrixXd q = qr.householderQ() * Eigen::MatrixXd::Identity(n, k);
+
+  // Lags roughly evenly spaced in log up to a quarter of the record.
+  std::vector<Eigen::Index> lags;
+  for (double l = 0.0; l <= static_cast<double>(n) / 4.0; l = std::max(l + 1.0, std::round(l * 1.5))) {
+    lags.push_back(static_cast<Eigen::Index>(l));
+  }
+  std::vector<double> observed;
+  std::vector<Eigen::MatrixXd> sq;
+  std::vector<Eigen::MatrixXd> qsq;
+  for (Eigen::Index l : lags) {
+    observed.push_back(lagged_sum(residual, l));
+    sq.push_back(shift(q, l));
+    qsq.push_back(q.transpose() * sq.back());
+  }
+  // The white part's expected sums (C = I).
+  std::vector<double> white;
+  {
+    const Eigen::MatrixXd qcq = Eigen::MatrixXd::Identity(k, k);
+    for (std::size_t i = 0; i < lags.size(); ++i) {
+      white.push_back(expected_lagged_sum(n, lags[i], lags[i] == 0 ? 1.0 : 0.0, q, qcq, sq[i], qsq[i]));
+    }
+  }
+
+  ResidualNoise best;
+  double best_cost = std::numeric_limits<double>::infinity();
+  // Time constants from 1 row to the record's length, 1.25x apart.
+  for (double tau = 1.0; tau <= static_cast<double>(n); tau *= 1.25) {
+    const double phi = std::exp(-1.0 / tau);
+    const Eigen::MatrixXd cq = apply_first_order(q, phi);
+    const Eigen::MatrixXd qcq = q.transpose() * cq;
+    std::vector<double> slow;
+    for (std::size_t i = 0; i < lags.size(); ++i) {
+      slow.push_back(
+          expected_lagged_sum(n, lags[i], std::pow(phi, static_cast<double>(lags[i])), cq, qcq, sq[i], qsq[i]));
+    }
+    // Nonnegative least squares in two unknowns: the unconstrained solution,
+    // else the better of the two one-term fits.
+    double ww = 0.0, ws = 0.0, ss = 0.0, wo = 0.0, so = 0.0;
+    for (std::size_t i = 0; i < lags.size(); ++i) {
+      ww += white[i] * white[i];
+      ws += white[i] * slow[i];
+      ss += slow[i] * slow[i];
+      wo += white[i] * observed[i];
+      so += slow[i] * observed[i];
+    }
+    auto cost = [&](double w, double s) {
+      double c = 0.0;
+      for (std::size_t i = 0; i < lags.size(); ++i) c += std::pow(observed[i] - w * white[i] - s * slow[i], 2);
+      return c;
+    };
+    std::array<std::array<double, 2>, 3> candidates{{{std::max(0.0, wo / ww), 0.0}, {0.0, std::max(0.0, so / ss)}}};
+    const double det = ww * ss - ws * ws;
+    candidates[2] = {-1.0, -1.0};
+    if (det > 0.0) candidates[2] = {(wo * ss - so * ws) / det, (so * ww - wo * ws) / det};
+    for (const auto& [w, s] : candidates) {
+      if (w < 0.0 || s < 0.0) continue;
+      const double c = cost(w, s);
+      if (c < best_cost) {
+        best_cost = c;
+        best = {w, s, tau};
+      }
+    }
+  }
+  return best;
+}
+
+Eigen::MatrixXd noise_covariance(const Eigen::MatrixXd& jacobian, const Eigen::MatrixXd& inverse_normal,
+                                 const ResidualNoise& noise) {
+  // As a sum of Gram matrices, so that it stays positive semi-definite when
+  // the parameters' scales differ by orders of magnitude: with G = J (J'J)^-1
+  // and R = L L' (L the first-order filter from white noise,
+  // x_t = phi x_{t-1} + sqrt(1 - phi^2) e_t), the sandwich is
+  // white G'G + slow (L'G)'(L'G).
+  const Eigen::MatrixXd g = jacobian * inverse_normal;
+  Eigen::MatrixXd covariance = noise.white_var * (g.transpose() * g);
+  if (noise.slow_var > 0.0 && noise.slow_tau_rows > 0.0) {
+    const double phi = std::exp(-1.0 / noise.slow_tau_rows);
+    const Eigen::Index n = g.rows();
+    Eigen::MatrixXd h = g;  // L'G: a backward filter, every row but the first scaled
+    for (Eigen::Index t = n - 2; t >= 0; --t) h.row(t) += phi * h.row(t + 1);
+    h.bottomRows(n - 1) *= std::sqrt(1.0 - phi * phi);
+    covariance += noise.slow_var * (h.transpose() * h);
+  }
+  return covariance;
+}
+
+}  // namespace gyrotc::tune
