@@ -21,8 +21,8 @@ struct Bin {
   double rate_sum_c_per_min = 0.0;
 };
 
-// The casing's rate of change at each sample, over +-window/2 (fewer at the
-// ends): centred, so a bin's mean rate is that of the samples in it.
+}  // namespace
+
 std::vector<double> rates_c_per_min(std::span<const double> t, std::span<const double> temp, double window_s) {
   const std::size_t n = t.size();
   std::vector<double> rate(n, 0.0);
@@ -36,8 +36,6 @@ std::vector<double> rates_c_per_min(std::span<const double> t, std::span<const d
   }
   return rate;
 }
-
-}  // namespace
 
 const char* screen_check_name(ScreenCheck check) {
   switch (check) {

@@ -16,6 +16,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "gyrotc/algorithms/fit/compensator.hpp"
 #include "gyrotc/app/cli/cli_main.hpp"
 #include "gyrotc/app/cli/commands.hpp"
 #include "gyrotc/app/daemon/config.hpp"
@@ -38,6 +39,16 @@ struct CalibrateOptions {
   bool json = false;
 };
 
+// The upward and downward passes' split, for the report: the die's lag and
+// any hysteresis (docs/SELFCAL.md).
+nlohmann::json up_down_json(const calibrate::UpDownDifference& d) {
+  nlohmann::json bins = nlohmann::json::array();
+  for (const calibrate::UpDownBin& b : d.bins) {
+    bins.push_back({{"temp_c", b.temp_c}, {"up_mv", b.up_mv}, {"down_mv", b.down_mv}});
+  }
+  return {{"max_abs_mv", d.max_abs_mv}, {"max_at_c", d.max_at_c}, {"mean_abs_mv", d.mean_abs_mv}, {"bins", bins}};
+}
+
 // The record's range against the service range, then the fit.
 void fit_and_check(const std::string& record, const CalibrateOptions& o) {
   const RecordRange range = read_record_range(record);
@@ -46,7 +57,19 @@ void fit_and_check(const std::string& record, const CalibrateOptions& o) {
     throw InputError(record + ": cannot calibrate for service: " + gap +
                      "; run the sweep at a lower ambient, or calibrate in a chamber (gyrotc fit)");
   }
-  fit_record_auto(record, o.out, o.plot, o.json);
+  const calibrate::UpDownDifference split = read_up_down_difference(record);
+  fit_record_auto(record, o.out, o.plot, o.json, {{"up_down", up_down_json(split)}});
+  if (o.json) return;
+  if (split.bins.empty()) {
+    std::printf("up/down: no temperature crossed both ways (not a self-calibration sweep?)\n");
+    return;
+  }
+  const double scale = fit::Compensator::kSeedScaleMvPerDps;
+  std::printf("up/down: the passes differ by %.3f mV (%.4f deg/s) on average over %zu bins, at most %.3f mV "
+              "(%.4f deg/s) at %.1f C: the die's lag and any hysteresis, what a unit warming or cooling through "
+              "these temperatures at 0.6 C/min sees about the fitted mean\n",
+              split.mean_abs_mv, split.mean_abs_mv / scale, split.bins.size(), split.max_abs_mv,
+              split.max_abs_mv / scale, split.max_at_c);
 }
 
 // The pid of the daemon that runs on this configuration's board, from its

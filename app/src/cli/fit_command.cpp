@@ -54,6 +54,7 @@ struct FitOptions {
   double bin_width_c = 1.0;
   double scale_mv_per_dps = fit::Compensator::kSeedScaleMvPerDps;
   std::vector<std::string> accept;  // record checks overridden: span, uneven, unsettled
+  nlohmann::json extra_json = nlohmann::json::object();  // a caller's keys added to the --json summary
 };
 
 struct Points {
@@ -474,6 +475,7 @@ void run_single(const FitOptions& o) {
     j["model"] = model_json(f.model);
     if (!o.out.empty()) j["out"] = o.out;
     if (!o.plot.empty()) j["plot"] = o.plot;
+    j.update(o.extra_json);
     std::printf("%s\n", j.dump(2).c_str());
     return;
   }
@@ -605,8 +607,10 @@ void require_positive(const T& values, const char* option) {
 
 }  // namespace
 
-void fit_record_auto(const std::string& data, const std::string& out, const std::string& plot, bool json) {
+void fit_record_auto(const std::string& data, const std::string& out, const std::string& plot, bool json,
+                     const nlohmann::json& extra_json) {
   FitOptions o;
+  o.extra_json = extra_json;
   o.data = data;
   o.method = "auto";
   o.out = out;

@@ -157,3 +157,24 @@ TEST_CASE("calibrate --install needs --config, the board whose calibration it re
   });
   CHECK_THAT(e, Catch::Contains("--install: needs --config, the board whose calibration file it replaces"));
 }
+
+TEST_CASE("calibrate reports the split of the sweep's passes, largest where the S-curve is steepest") {
+  // The die lags the casing: each pass reads the curve a little behind, so
+  // the two passes differ most where the curve falls fastest (30 C).
+  const std::string printed = run_command(gyrotc::app::add_calibrate_command, "calibrate",
+                                          {"--data", selfcal_record(), "--out", kDir + "/split.toml", "--json"});
+  const nlohmann::json split = nlohmann::json::parse(printed).at("up_down");
+  CHECK(split.at("bins").size() > 40);
+  CHECK(split.at("max_at_c").get<double>() == Approx(30.0).margin(6.0));
+  // Where the curve is nearly flat (below 12 C, above 55 C) the passes agree.
+  double flat_mv = 0.0;
+  int flat_bins = 0;
+  for (const nlohmann::json& b : split.at("bins")) {
+    const double t = b.at("temp_c").get<double>();
+    if (t > 12.0 && t < 55.0) continue;
+    flat_mv += std::fabs(b.at("up_mv").get<double>() - b.at("down_mv").get<double>());
+    ++flat_bins;
+  }
+  REQUIRE(flat_bins > 5);
+  CHECK(split.at("max_abs_mv").get<double>() > 4.0 * flat_mv / flat_bins);
+}

@@ -51,6 +51,10 @@ struct ScreenFinding {
 
 const char* screen_check_name(ScreenCheck check);  // "held", "span", "uneven", "unsettled"
 
+// The casing's rate of change at each sample, C/min, over +-window/2 (fewer
+// at the ends): centred, so a bin's mean rate is that of the samples in it.
+std::vector<double> rates_c_per_min(std::span<const double> time_s, std::span<const double> temp_c, double window_s);
+
 // Every check the record fails, in the order of ScreenCheck. `min_bins`
 // grows with the model asked for: the caller passes the larger of the
 // default and 3 points per coefficient.

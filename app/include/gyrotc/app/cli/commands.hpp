@@ -1,6 +1,7 @@
 #pragma once
 
 #include <CLI/CLI.hpp>
+#include <nlohmann/json.hpp>
 #include <string>
 
 // Every `gyrotc <command>` registers itself through one of these;
@@ -18,8 +19,10 @@ void add_fit_command(CLI::App& app);
 void add_calibrate_command(CLI::App& app);
 
 // `gyrotc fit --data RECORD --method auto --out OUT [--plot PLOT] [--json]`,
-// for `gyrotc calibrate`: the same refusals, fit, report and file.
-void fit_record_auto(const std::string& data, const std::string& out, const std::string& plot, bool json);
+// for `gyrotc calibrate`: the same refusals, fit, report and file;
+// extra_json's keys join the --json summary.
+void fit_record_auto(const std::string& data, const std::string& out, const std::string& plot, bool json,
+                     const nlohmann::json& extra_json);
 void add_simulate_command(CLI::App& app);
 void add_tune_command(CLI::App& app);
 void add_allan_command(CLI::App& app);

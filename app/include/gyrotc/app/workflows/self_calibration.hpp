@@ -2,6 +2,8 @@
 
 #include <string>
 
+#include "gyrotc/algorithms/calibrate/up_down_difference.hpp"
+
 // What `gyrotc calibrate` does around the sweep (issue 30): whether a
 // record's range covers what the unit will see in service.
 namespace gyrotc::app {
@@ -20,5 +22,9 @@ RecordRange read_record_range(const std::string& path);
 // "" when the range covers the ambient of the run up to the setpoint (the
 // unit in service warms from one to the other); else why not, one clause.
 std::string service_range_gap(const RecordRange& r);
+
+// The upward and downward passes of a sweep record compared (time_s,
+// sensor_c, gyro_mv; InputError naming the file and the column missing).
+calibrate::UpDownDifference read_up_down_difference(const std::string& path);
 
 }  // namespace gyrotc::app
