@@ -228,7 +228,7 @@ void BoardEmulator::step_plant() {
 
 void BoardEmulator::log_plant_locked(double now_s) {
   char value[32], detail[200];
-  std::snprintf(value, sizeof value, "%.4f", plant_.casing_c());
+  std::snprintf(value, sizeof value, "%.4f", plant_.controlled_c());
   std::snprintf(detail, sizeof detail,
                 "die_c=%.4f;sensor_c=%.4f;ambient_c=%.3f;tec_a=%.4f;enabled=%d;opa548_c=%.1f;shutdown=%d", plant_.die_c(),
                 plant_.sensor_c(), plant_.ambient_c(), plant_.tec_current_a(), plant_.tec_enabled() ? 1 : 0,
@@ -269,7 +269,7 @@ void BoardEmulator::run_es() {
 
 BoardEmulator::Snapshot BoardEmulator::snapshot() {
   const std::lock_guard lock(mutex_);
-  return {clock_.now_s(), plant_.casing_c(), plant_.die_c(), plant_.sensor_c(), plant_.ambient_c(),
+  return {clock_.now_s(), plant_.controlled_c(), plant_.die_c(), plant_.sensor_c(), plant_.ambient_c(),
           plant_.tec_current_a(), es_enabled_, injected_shutdown_ || plant_.opa548_thermal_shutdown(),
           tec_dac_.code(), rate_dac_.code()};
 }
@@ -280,7 +280,7 @@ std::string BoardEmulator::status_locked(double now_s, const AdcEmulator::Stats&
                 "ok t_s=%.3f casing_c=%.4f die_c=%.4f sensor_c=%.4f ambient_c=%.3f tec_a=%.4f tec_dac=%u "
                 "rate_dac=%u es=%d opa548=%s adc_conversions=%llu adc_transfers=%llu adc_corrupted=%llu "
                 "adc_corrupted_used=%llu adc_late_edges=%llu",
-                now_s, plant_.casing_c(), plant_.die_c(), plant_.sensor_c(), plant_.ambient_c(), plant_.tec_current_a(),
+                now_s, plant_.controlled_c(), plant_.die_c(), plant_.sensor_c(), plant_.ambient_c(), plant_.tec_current_a(),
                 tec_dac_.code(), rate_dac_.code(), es_enabled_ ? 1 : 0,
                 (injected_shutdown_ || plant_.opa548_thermal_shutdown()) ? "shutdown"
                 : es_enabled_                                           ? "enabled"

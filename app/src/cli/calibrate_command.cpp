@@ -5,12 +5,9 @@
 // unit sees in service.
 #include <signal.h>
 
-#include <chrono>
 #include <cstdio>
 #include <filesystem>
-#include <fstream>
 #include <memory>
-#include <sstream>
 #include <string>
 #include <system_error>
 
@@ -21,6 +18,7 @@
 #include "gyrotc/app/cli/commands.hpp"
 #include "gyrotc/app/daemon/config.hpp"
 #include "gyrotc/app/daemon/session.hpp"
+#include "gyrotc/app/daemon/status_reader.hpp"
 #include "gyrotc/app/support/errors.hpp"
 #include "gyrotc/app/support/output_path.hpp"
 #include "gyrotc/app/workflows/self_calibration.hpp"
@@ -75,18 +73,13 @@ void fit_and_check(const std::string& record, const CalibrateOptions& o) {
 // The pid of the daemon that runs on this configuration's board, from its
 // status file (written once a second while it runs), or 0.
 int running_daemon_pid(const DaemonConfig& config) {
-  std::ifstream in(config.output.status_file);
-  if (config.output.status_file.empty() || !in) return 0;
-  std::stringstream text;
-  text << in.rdbuf();
-  const nlohmann::json j = nlohmann::json::parse(text.str(), nullptr, false);
-  if (!j.is_object() || j.value("format", "") != "gyrotc-status" || !j.value("running", false)) return 0;
-  const double now_s =
-      std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
-  const int pid = j.value("pid", 0);
-  const double written_s = j.value("written_unix_s", 0.0);
-  if (pid <= 0 || !(now_s - written_s <= 5.0) || ::kill(pid, 0) != 0) return 0;
-  return pid;
+  if (config.output.status_file.empty()) return 0;
+  try {
+    const DaemonStatusRead read = read_daemon_status(config.output.status_file, 5.0);
+    return read.problem.empty() ? read.pid : 0;
+  } catch (const RuntimeFailure&) {
+    return 0;  // no status file: no daemon
+  }
 }
 
 // Atomically in place of the configuration's calibration file; a daemon

@@ -1,20 +1,13 @@
 // `gyrotc status`: the running daemon's status file, for a person or a script.
-#include <signal.h>
-
-#include <cerrno>
-#include <chrono>
 #include <cmath>
 #include <cstdio>
-#include <ctime>
-#include <filesystem>
-#include <fstream>
 #include <memory>
 #include <nlohmann/json.hpp>
-#include <sstream>
 #include <string>
 
 #include "gyrotc/app/cli/commands.hpp"
 #include "gyrotc/app/daemon/config.hpp"
+#include "gyrotc/app/daemon/status_reader.hpp"
 #include "gyrotc/app/support/errors.hpp"
 
 namespace gyrotc::app {
@@ -26,37 +19,6 @@ struct StatusOptions {
   bool json = false;
   double max_age_s = 5.0;
 };
-
-double unix_now_s() {
-  return std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
-}
-
-bool process_exists(int pid) {
-  // EPERM: it exists, under another user (the service's).
-  return pid > 0 && (::kill(pid, 0) == 0 || errno == EPERM);
-}
-
-std::string clock_time(double unix_s) {
-  const std::time_t t = static_cast<std::time_t>(unix_s);
-  std::tm tm{};
-  ::localtime_r(&t, &tm);
-  char text[32];
-  std::strftime(text, sizeof text, "%Y-%m-%d %H:%M:%S", &tm);
-  return text;
-}
-
-std::string duration_text(double s) {
-  char text[48];
-  const long total = static_cast<long>(s);
-  if (total < 120) {
-    std::snprintf(text, sizeof text, "%ld s", total);
-  } else if (total < 7200) {
-    std::snprintf(text, sizeof text, "%ld min %02ld s", total / 60, total % 60);
-  } else {
-    std::snprintf(text, sizeof text, "%ld h %02ld min", total / 3600, (total % 3600) / 60);
-  }
-  return text;
-}
 
 double number(const nlohmann::json& j, const char* key) {
   return j.contains(key) && j[key].is_number() ? j[key].get<double>() : std::nan("");
@@ -108,38 +70,12 @@ void show_status(const StatusOptions& o) {
     path = load_daemon_config(o.config_path).output.status_file;
     if (path.empty()) throw InputError(o.config_path + ": [output] status_file is \"\": this daemon keeps no status");
   }
-  std::ifstream in(path);
-  if (!in) {
-    throw RuntimeFailure("no gyrotc daemon is running: no status file " + path +
-                         " (systemctl status gyrotc tells why the service is not running)");
-  }
-  std::stringstream text;
-  text << in.rdbuf();
-  nlohmann::json j;
-  try {
-    j = nlohmann::json::parse(text.str());
-  } catch (const nlohmann::json::exception&) {
-    throw RuntimeFailure(path + ": not a gyrotc status file (no JSON)");
-  }
-  if (!j.is_object() || j.value("format", "") != "gyrotc-status") {
-    throw RuntimeFailure(path + ": not a gyrotc status file (format is not \"gyrotc-status\")");
-  }
-  const int pid = j.value("pid", 0);
-  const double written = number(j, "written_unix_s");
-  std::string problem;
-  if (!j.value("running", false)) {
-    problem = "no gyrotc daemon is running: the last one (pid " + std::to_string(pid) + ") stopped at " +
-              clock_time(written) + " (" + j.value("stopped_by", std::string("?")) + "), TEC at 0 A";
-  } else if (!process_exists(pid)) {
-    problem = "no gyrotc daemon is running: pid " + std::to_string(pid) + " wrote " + path +
-              " and has gone without stopping (a crash or a kill; last status " + clock_time(written) + ")";
-  } else if (!(unix_now_s() - written <= o.max_age_s)) {
-    problem = "the gyrotc daemon (pid " + std::to_string(pid) + ") has not written its status for " +
-              duration_text(unix_now_s() - written) + " (it writes once a second): its main thread is stuck";
-  }
+  const DaemonStatusRead read = read_daemon_status(path, o.max_age_s);
+  nlohmann::json j = read.status;
+  const std::string& problem = read.problem;
   if (o.json) {
     j["status_file"] = path;
-    j["age_s"] = unix_now_s() - written;
+    j["age_s"] = read.age_s;
     j["problem"] = problem.empty() ? nlohmann::json(nullptr) : nlohmann::json(problem);
     std::printf("%s\n", j.dump(2).c_str());
   } else if (problem.empty()) {

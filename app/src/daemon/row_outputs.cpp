@@ -15,8 +15,8 @@ namespace gyrotc::app {
 namespace {
 
 void format_row(const OutputRow& row, char* out, std::size_t size) {
-  std::snprintf(out, size, "%.3f,%.4f,%.4f,%.5f,%.5f,%.4f,%.3f,%" PRIu32, row.time_s, row.casing_c, row.ambient_c,
-                row.gyro_mv, row.rate_dps, row.tec_a, row.setpoint_c, row.flags);
+  format_record_row(out, size, row.time_s, row.casing_c, row.ambient_c, row.gyro_mv, row.rate_dps, row.tec_a,
+                    row.setpoint_c, row.flags);
 }
 
 StreamKind stream_kind(const RowOutputsConfig& c) { return c.stream ? c.output.stream : StreamKind::none; }

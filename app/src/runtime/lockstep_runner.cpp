@@ -331,9 +331,11 @@ void write_board_record_csv(const std::vector<RecordRow>& rows, const std::strin
   std::FILE* f = std::fopen(path.c_str(), "w");
   if (f == nullptr) throw RuntimeFailure(path + ": cannot write the record");
   std::fprintf(f, "%s\n", kRecordCsvHeader);
+  char line[256];
   for (const auto& r : rows) {
-    std::fprintf(f, "%.3f,%.4f,%.4f,%.5f,%.6f,%.5f,%.4f,%u\n", r.time_s, r.sensor_c, r.ambient_reading_c,
-                 r.gyro_mv, r.rate_dps_compensated, r.tec_command_a, r.setpoint_c, static_cast<unsigned>(r.flags));
+    format_record_row(line, sizeof line, r.time_s, r.sensor_c, r.ambient_reading_c, r.gyro_mv, r.rate_dps_compensated,
+                      r.tec_command_a, r.setpoint_c, r.flags);
+    std::fprintf(f, "%s\n", line);
   }
   const bool ok = std::ferror(f) == 0;
   if (std::fclose(f) != 0 || !ok) throw RuntimeFailure(path + ": cannot write the record");

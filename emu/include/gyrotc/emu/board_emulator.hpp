@@ -80,6 +80,8 @@ class BoardEmulator final : hal::SimAds1251::Input {
   std::string apply(const std::string& command);
 
   struct Snapshot {
+    // casing_c: what the loop holds, as simulate's record gives it (the plant's
+    // controlled_c: for a network plant, the casing sensor's node plus its offset).
     double t_s, casing_c, die_c, sensor_c, ambient_c, tec_a;
     bool es_enabled, opa548_shutdown;
     std::uint16_t tec_code, rate_code;
