@@ -195,13 +195,16 @@ TEST_CASE("the plant simulator's TEC, loss and rail are identified within a few 
   CHECK(fit.model.dead_time_s + fit.model.sensor_lag_s < 3.0);
 }
 
-TEST_CASE("the reported standard errors cover the truth of the plant simulator's TEC gain") {
+TEST_CASE("the identified TEC gain is within 0.6 % of the plant simulator's, whose casing node also carries the die") {
+  // Not a coverage test: the plant's casing node carries the die (0.5 % of
+  // its capacity), a structure the tune model does not have, so the gain is
+  // off by more than its standard error (4 se, docs/TUNING.md). What the
+  // intervals are worth is measured on records whose truth is the tune model
+  // itself (standard_error_coverage_test.cpp, "[.coverage]").
   const model::PlantParams p;
-  const ThermalFit& fit = nominal_fit();
-  // The casing node carries the die as well (0.5 % of its capacity), which the
-  // standard error of a 2 h record cannot resolve: allow that and 4 sigma.
-  const tune::Estimate a = estimate(fit, "peltier_per_a_s");
-  CHECK(std::fabs(a.value - truth_peltier(p)) < 4.0 * a.std_error + 0.006 * truth_peltier(p));
+  const tune::Estimate a = estimate(nominal_fit(), "peltier_per_a_s");
+  INFO(a.value << " against " << truth_peltier(p) << ", se " << a.std_error);
+  CHECK(std::fabs(a.value - truth_peltier(p)) < 0.006 * truth_peltier(p));
   CHECK(a.std_error > 0.0);
 }
 
