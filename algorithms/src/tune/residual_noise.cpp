@@ -20,29 +20,29 @@ Eigen::MatrixXd apply_first_order(const Eigen::MatrixXd& x, double phi) {
   return forward + backward - x;
 }
 
-// S x with S the symmetric lag-l shift: (x_{t+l} + x_{t-l}) / 2.
-Eigen::MatrixXd shift(const Eigen::MatrixXd& x, Eigen::Index lag) {
-  const Eigen::Index n = x.rows();
-  Eigen::MatrixXd y = Eigen::MatrixXd::Zero(n, x.cols());
-  if (lag == 0) return x;
-  if (lag >= n) return y;
-  y.topRows(n - lag) += 0.5 * x.bottomRows(n - lag);
-  y.bottomRows(n - lag) += 0.5 * x.topRows(n - lag);
-  return y;
+// sum_t sum_j a(t, j) (S_l b)(t, j), S_l the symmetric lag-l shift
+// ((S_l b)_t = (b_{t+l} + b_{t-l}) / 2), without forming S_l b.
+double lagged_product(const Eigen::MatrixXd& a, const Eigen::MatrixXd& b, Eigen::Index lag) {
+  const Eigen::Index n = a.rows();
+  if (lag >= n) return 0.0;
+  return 0.5 * (a.topRows(n - lag).cwiseProduct(b.bottomRows(n - lag)).sum() +
+                a.bottomRows(n - lag).cwiseProduct(b.topRows(n - lag)).sum());
 }
 
-// x' S_l x = sum_t x_t x_{t+l}.
-double lagged_sum(const Eigen::VectorXd& x, Eigen::Index lag) {
-  const Eigen::Index n = x.size();
-  if (lag >= n) return 0.0;
-  return x.head(n - lag).dot(x.tail(n - lag));
+// Q' S_l Q, the same way.
+Eigen::MatrixXd lagged_gram(const Eigen::MatrixXd& q, Eigen::Index lag) {
+  const Eigen::Index n = q.rows();
+  if (lag == 0) return q.transpose() * q;
+  if (lag >= n) return Eigen::MatrixXd::Zero(q.cols(), q.cols());
+  const Eigen::MatrixXd half = 0.5 * (q.topRows(n - lag).transpose() * q.bottomRows(n - lag));
+  return half + half.transpose();
 }
 
 // E[(Me)' S_l (Me)] for e ~ (0, C), M = I - QQ':
-// tr(S_l C) - 2 tr(Q' C S_l Q) + tr((Q' S_l Q)(Q' C Q)).
-double expected_lagged_sum(Eigen::Index n, Eigen::Index lag, double gamma_lag, const Eigen::MatrixXd& cq,
-                           const Eigen::MatrixXd& qcq, const Eigen::MatrixXd& sq, const Eigen::MatrixXd& qsq) {
-  return static_cast<double>(n - lag) * gamma_lag - 2.0 * cq.cwiseProduct(sq).sum() + (qsq * qcq).trace();
+// tr(S_l C) - 2 tr(Q' C S_l Q) + tr((Q' S_l Q)(Q' C Q)), with CQ given.
+double expected_lagged_sum(const Eigen::MatrixXd& q, Eigen::Index lag, double gamma_lag, const Eigen::MatrixXd& cq,
+                           const Eigen::MatrixXd& qcq, const Eigen::MatrixXd& qsq) {
+  return static_cast<double>(q.rows() - lag) * gamma_lag - 2.0 * lagged_product(cq, q, lag) + (qsq * qcq).trace();
 }
 
 }  // namespace
@@ -66,19 +66,17 @@ ResidualNoise fit_residual_noise(const Eigen::MatrixXd& jacobian, const Eigen::V
     lags.push_back(static_cast<Eigen::Index>(l));
   }
   std::vector<double> observed;
-  std::vector<Eigen::MatrixXd> sq;
   std::vector<Eigen::MatrixXd> qsq;
   for (Eigen::Index l : lags) {
-    observed.push_back(lagged_sum(residual, l));
-    sq.push_back(shift(q, l));
-    qsq.push_back(q.transpose() * sq.back());
+    observed.push_back(lagged_product(residual, residual, l));
+    qsq.push_back(lagged_gram(q, l));
   }
   // The white part's expected sums (C = I).
   std::vector<double> white;
   {
     const Eigen::MatrixXd qcq = Eigen::MatrixXd::Identity(k, k);
     for (std::size_t i = 0; i < lags.size(); ++i) {
-      white.push_back(expected_lagged_sum(n, lags[i], lags[i] == 0 ? 1.0 : 0.0, q, qcq, sq[i], qsq[i]));
+      white.push_back(expected_lagged_sum(q, lags[i], lags[i] == 0 ? 1.0 : 0.0, q, qcq, qsq[i]));
     }
   }
 
@@ -91,8 +89,7 @@ ResidualNoise fit_residual_noise(const Eigen::MatrixXd& jacobian, const Eigen::V
     const Eigen::MatrixXd qcq = q.transpose() * cq;
     std::vector<double> slow;
     for (std::size_t i = 0; i < lags.size(); ++i) {
-      slow.push_back(
-          expected_lagged_sum(n, lags[i], std::pow(phi, static_cast<double>(lags[i])), cq, qcq, sq[i], qsq[i]));
+      slow.push_back(expected_lagged_sum(q, lags[i], std::pow(phi, static_cast<double>(lags[i])), cq, qcq, qsq[i]));
     }
     // Nonnegative least squares in two unknowns: the unconstrained solution,
     // else the better of the two one-term fits.
@@ -109,10 +106,13 @@ ResidualNoise fit_residual_noise(const Eigen::MatrixXd& jacobian, const Eigen::V
       for (std::size_t i = 0; i < lags.size(); ++i) c += std::pow(observed[i] - w * white[i] - s * slow[i], 2);
       return c;
     };
-    std::array<std::array<double, 2>, 3> candidates{{{std::max(0.0, wo / ww), 0.0}, {0.0, std::max(0.0, so / ss)}}};
     const double det = ww * ss - ws * ws;
-    candidates[2] = {-1.0, -1.0};
-    if (det > 0.0) candidates[2] = {(wo * ss - so * ws) / det, (so * ww - wo * ws) / det};
+    const std::array<std::array<double, 2>, 3> candidates{{
+        {wo / ww, 0.0},
+        {0.0, so / ss},
+        det > 0.0 ? std::array<double, 2>{(wo * ss - so * ws) / det, (so * ww - wo * ws) / det}
+                  : std::array<double, 2>{-1.0, -1.0},  // no joint solution: left out below
+    }};
     for (const auto& [w, s] : candidates) {
       if (w < 0.0 || s < 0.0) continue;
       const double c = cost(w, s);

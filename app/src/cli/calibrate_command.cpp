@@ -65,7 +65,7 @@ void fit_and_check(const std::string& record, const CalibrateOptions& o) {
   const double scale = fit::Compensator::kSeedScaleMvPerDps;
   std::printf("up/down: the passes differ by %.3f mV (%.4f deg/s) on average over %zu bins, at most %.3f mV "
               "(%.4f deg/s) at %.1f C: the die's lag and any hysteresis, what a unit warming or cooling through "
-              "these temperatures at 0.6 C/min sees about the fitted mean\n",
+              "these temperatures at the sweep's rate sees about the fitted mean\n",
               split.mean_abs_mv, split.mean_abs_mv / scale, split.bins.size(), split.max_abs_mv,
               split.max_abs_mv / scale, split.max_at_c);
 }
