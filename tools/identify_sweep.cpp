@@ -28,6 +28,7 @@
 #include <cstring>
 #include <fstream>
 #include <functional>
+#include <limits>
 #include <map>
 #include <mutex>
 #include <random>
@@ -356,7 +357,9 @@ std::vector<Scenario> family_c() {
     // Across a gap a drift is not tried (it cannot be told from the wander's
     // level change there): the record must not claim one, nor anything else.
     s.drift_mv_per_h = 0.3;
-    out.push_back(series_c("gap 1 h: linear_drift 0.3 mV/h (not tried across a gap)", "none", s, {kRefused}));
+    // The drift is still there: structure flagged as unexplained is right too.
+    out.push_back(
+        series_c("gap 1 h: linear_drift 0.3 mV/h (not tried across a gap)", "none", s, {kRefused, "unexplained"}));
     s.drift_mv_per_h = 0.0;
     s.gaps = {{1800.0, 600.0}, {7200.0, 900.0}, {14400.0, 1200.0}};
     s.warm_up_mv = 1.5;
@@ -371,12 +374,26 @@ std::vector<Scenario> family_c() {
   {
     indep::IndependentSpec s;
     s.wander_tau_s = 300.0;
+    // The relaxation follows the first pass above 50 C: the chamber goes to
+    // 65 C first, so that every record has one, early enough for the record
+    // to revisit the temperatures it crossed before.
     s.relaxation_mv = 1.0;
-    out.push_back(series_c("outside the library: stress relaxation 1 mV", "unexplained", s));
+    s.first_level_c = 65.0;
+    out.push_back(series_c("outside the library: stress relaxation 1 mV after the first pass above 50 C",
+                           "unexplained", s));
     out.back().outside_library = true;
     s.relaxation_mv = 0.0;
+    s.first_level_c = std::numeric_limits<double>::quiet_NaN();
     s.periodic_mv = 0.5;
     out.push_back(series_c("outside the library: 0.5 mV periodic disturbance, 90 min", "unexplained", s));
+    out.back().outside_library = true;
+    s.periodic_mv = 0.0;
+    s.step_mv = 1.0;
+    out.push_back(series_c("outside the library: 1 mV step at 3 h", "unexplained", s));
+    out.back().outside_library = true;
+    s.step_mv = 0.0;
+    s.rate_squared_mv = 0.5;
+    out.push_back(series_c("outside the library: 0.5 mV per (C/min)^2 of the rate squared", "unexplained", s));
     out.back().outside_library = true;
   }
   return out;
@@ -408,6 +425,14 @@ std::string explain(const Identification& id) {
                   c.round, c.effect.c_str(), c.p_value, c.long_run_factor, c.delta_bic, c.cv_gain,
                   c.folds_improved, c.t_ratio, c.passed ? "kept" : c.reason.c_str());
     out += line;
+    if (!c.params.empty()) {
+      out += "        at";
+      for (const auto& p : c.params) {
+        std::snprintf(line, sizeof line, " %s %.4g", p.name.c_str(), p.value);
+        out += line;
+      }
+      out += "\n";
+    }
   }
   for (const auto& a : id.added) {
     out += "  added " + a.effect + ":";
@@ -420,8 +445,17 @@ std::string explain(const Identification& id) {
   return out;
 }
 
+bool flagged_unexplained(const std::string& verdict) {
+  const std::string tail = "+unexplained";
+  return verdict == "unexplained" ||
+         (verdict.size() > tail.size() && verdict.compare(verdict.size() - tail.size(), tail.size(), tail) == 0);
+}
+
 bool correct(const Outcome& o) {
   if (o.verdict == canonical(o.scenario->expected)) return true;
+  // An effect outside the library: flagged, alone or beside library effects
+  // that explain part of it.
+  if (o.scenario->outside_library && flagged_unexplained(o.verdict)) return true;
   // Near-collinear records: any ambiguity that names the truth is right.
   if (o.scenario->near_collinear && o.verdict.rfind("ambiguous:", 0) == 0) {
     const std::string parts = "+" + o.verdict.substr(10) + "+";
@@ -477,7 +511,7 @@ std::vector<Outcome> run_all(const std::vector<const Scenario*>& scenarios, std:
 
 struct Tally {
   int records = 0, right = 0;
-  int outside = 0, outside_right = 0;
+  int outside = 0, outside_right = 0, outside_alone = 0;
   int nulls = 0, null_wrong = 0;
   int effects = 0, effects_right = 0, effects_strict = 0;
   int collinear = 0, collinear_ok = 0;
@@ -492,9 +526,10 @@ Tally tally(const std::vector<Outcome>& outcomes) {
     if (o.scenario->outside_library) {
       ++t.outside;
       t.outside_right += ok;
+      t.outside_alone += o.verdict == "unexplained";
     } else if (o.scenario->expected == "none") {
       ++t.nulls;
-      t.null_wrong += o.verdict != "none" && o.verdict != kRefused;
+      t.null_wrong += !ok;  // a refusal, or a verdict the scenario accepts, is no false positive
     } else if (o.scenario->expected != kRefused) {
       ++t.effects;
       t.effects_right += ok;
@@ -539,8 +574,8 @@ void report(const char* title, const std::vector<Outcome>& outcomes) {
   std::printf("- effect records: %d, right: %d (%.1f %%; the truth alone: %d)\n", t.effects, t.effects_right,
               t.effects ? 100.0 * t.effects_right / t.effects : 0.0, t.effects_strict);
   if (t.outside > 0) {
-    std::printf("- records with an effect outside the library: %d, answered unexplained: %d\n", t.outside,
-                t.outside_right);
+    std::printf("- records with an effect outside the library: %d, flagged unexplained: %d (alone: %d)\n",
+                t.outside, t.outside_right, t.outside_alone);
   }
   if (t.collinear > 0) {
     std::printf("- narrow-range near-collinear records: %d, ambiguous or right: %d\n", t.collinear, t.collinear_ok);

@@ -279,6 +279,8 @@ bool held_out_tie(const std::vector<double>& best, const std::vector<double>& ot
 
 struct Trial {
   std::string effect;
+  bool scanned = false;  // a probe with a scan (SelectionProblem::scan)
+  double alternatives = 1.0;
   std::vector<std::string> effects;  // the model's, with this one
   Scored scored;
   CandidateScore score;
@@ -346,8 +348,25 @@ Trial try_candidate(const SelectionProblem& problem, const Criteria& criteria, c
   trial.effect = effect;
   trial.effects = effects;
   trial.effects.push_back(effect);
+  ProbeScan scan;
+  if (probe && problem.scan) {
+    Eigen::MatrixXd design;
+    Eigen::VectorXd offset;
+    current.model.evaluate(current.fit.theta, design, offset);
+    scan = problem.scan(effect, current.fit.residual, design);
+  }
+  const bool scanned = !scan.starts.empty();
+  trial.scanned = scanned;
+  trial.alternatives = scan.alternatives;
   SeparableModel model = problem.build(trial.effects);
-  if (!current.fit.theta.empty()) {
+  if (scanned) {
+    model.theta_grid.clear();
+    for (const auto& s : scan.starts) {
+      std::vector<double> start = current.fit.theta;
+      start.insert(start.end(), s.begin(), s.end());
+      model.theta_grid.push_back(std::move(start));
+    }
+  } else if (!current.fit.theta.empty()) {
     // The effects already in keep their fitted theta as the start; only the
     // new effect's theta is searched on its grid (then LM refines all).
     std::set<std::vector<double>> starts;
@@ -365,8 +384,9 @@ Trial try_candidate(const SelectionProblem& problem, const Criteria& criteria, c
   // a catch-all with many degrees of freedom in time, is tested under the
   // current model's noise: a record holds few slow degrees of freedom, and
   // refitting the wander after the probe soaked part of it up would credit
-  // the probe with the wander's variance too.
-  const bool fixed_noise = probe && is_series(problem);
+  // the probe with the wander's variance too. A scanned probe, of few
+  // parameters, is tested as an effect is.
+  const bool fixed_noise = probe && !scanned && is_series(problem);
   trial.scored = score(problem, std::move(model), std::move(ols), fixed_noise ? &current.noise : nullptr,
                        is_series(problem) ? &current.noise : nullptr);
   const Scored& t = trial.scored;
@@ -375,7 +395,10 @@ Trial try_candidate(const SelectionProblem& problem, const Criteria& criteria, c
   s.effect = effect;
 
   const double n = static_cast<double>(problem.y.size());
-  const double dk = std::max(1.0, parameter_count(t.fit) - parameter_count(current.fit));
+  // A scanned probe's nonlinear parameters are paid for by the scan's
+  // alternatives (below), not counted again.
+  const double dk = std::max(1.0, scanned ? static_cast<double>(t.fit.beta.size() - current.fit.beta.size())
+                                          : parameter_count(t.fit) - parameter_count(current.fit));
   double lr = 0.0;
   if (is_series(problem)) {
     lr = std::max(0.0, 2.0 * (t.log_likelihood - current.log_likelihood) / t.lrv_factor);
@@ -389,7 +412,7 @@ Trial try_candidate(const SelectionProblem& problem, const Criteria& criteria, c
     s.delta_bic = n * std::log(std::max(current.fit.sse, 1e-300) / std::max(t.fit.sse, 1e-300)) - dk * std::log(n);
   }
 
-  if (probe) {
+  if (probe && !scanned) {
     trial.readout.t_ratio = 1e9;  // a probe has no single amplitude; the test is joint
     trial.readout.in_bounds = true;
   } else {
@@ -397,8 +420,16 @@ Trial try_candidate(const SelectionProblem& problem, const Criteria& criteria, c
   }
   if (is_series(problem) && trial.readout.amplitude_index >= 0) {
     s.long_run_factor = amplitude_long_run_factor(problem, t, trial.readout.amplitude_index);
+    if (trial.readout.second_amplitude_index >= 0) {
+      s.long_run_factor =
+          std::max(s.long_run_factor, amplitude_long_run_factor(problem, t, trial.readout.second_amplitude_index));
+    }
     s.p_value = chi_square_sf(lr / s.long_run_factor, dk);
     trial.readout.t_ratio /= std::sqrt(s.long_run_factor);
+  }
+  if (scanned) {
+    s.p_value = std::min(1.0, s.p_value * scan.alternatives);
+    s.params = trial.readout.params;
   }
   s.t_ratio = trial.readout.t_ratio;
   s.in_bounds = trial.readout.in_bounds && (probe || !at_bound);
@@ -420,7 +451,9 @@ Trial try_candidate(const SelectionProblem& problem, const Criteria& criteria, c
   trial.added_signal = t.fit.prediction - current.fit.prediction;
 
   char reason[96];
-  if (s.p_value > (is_series(problem) ? criteria.max_p_value : criteria.max_p_value_table)) {
+  const double max_p = scanned ? criteria.max_p_value_probe
+                               : (is_series(problem) ? criteria.max_p_value : criteria.max_p_value_table);
+  if (s.p_value > max_p) {
     std::snprintf(reason, sizeof reason, "evidence too weak (p = %.2g)", s.p_value);
     s.reason = reason;
   } else if (s.cv_gain < criteria.min_cv_gain ||
@@ -495,6 +528,37 @@ SelectionResult select_effects(const SelectionProblem& problem, const Criteria& 
       std::stable_sort(standings.begin(), standings.end(),
                        [](const Standing& a, const Standing& b) { return a.delta_bic > b.delta_bic; });
     }
+    // A library effect is named only where it explains the structure better
+    // than the probes of few parameters (a change of level, a periodic term,
+    // the rate squared) tried on the same model: a drift or a warm-up that
+    // only partly follows a step or a relaxation must not be claimed for it.
+    // Compared as the candidates are, under the strongest's noise, each
+    // probe's score less 2 ln(alternatives) for having been the best of a
+    // scan (in place of a count of its scanned parameters). A probe that does
+    // better ends the search: structure remains.
+    if (problem.scan && is_series(problem)) {
+      const WanderNoise& reference = passed.front().scored.noise;
+      const Scored base = score(problem, current.model, current.fit, &reference);
+      bool outdone = false;
+      for (const auto& probe : problem.probes) {
+        Trial t = try_candidate(problem, criteria, current, scored, effects, probe, round, true);
+        if (!t.scanned) continue;
+        result.tried.push_back(t.score);
+        if (!t.score.passed) continue;
+        const Scored common = score(problem, t.scored.model, t.scored.fit, &reference);
+        const double dk = std::max(1.0, static_cast<double>(common.fit.beta.size() - base.fit.beta.size()));
+        const double delta_bic = 2.0 * (common.log_likelihood - base.log_likelihood) / common.lrv_factor -
+                                 dk * std::log(static_cast<double>(n) / common.lrv_factor) -
+                                 2.0 * std::log(t.alternatives);
+        if (delta_bic > standings.front().delta_bic) {
+          outdone = true;
+          if (std::find(result.unexplained.begin(), result.unexplained.end(), probe) == result.unexplained.end()) {
+            result.unexplained.push_back(probe);
+          }
+        }
+      }
+      if (outdone) break;
+    }
     const Trial& best = *standings.front().trial;
     std::vector<std::string> tied{best.effect};
     for (std::size_t i = 1; i < standings.size(); ++i) {
@@ -532,7 +596,10 @@ SelectionResult select_effects(const SelectionProblem& problem, const Criteria& 
       step();
       Trial trial = try_candidate(problem, criteria, current, scored, effects, probe, 0, true);
       result.tried.push_back(trial.score);
-      if (trial.score.passed) result.unexplained.push_back(probe);
+      if (trial.score.passed &&
+          std::find(result.unexplained.begin(), result.unexplained.end(), probe) == result.unexplained.end()) {
+        result.unexplained.push_back(probe);
+      }
     }
   }
   if (progress) progress(1.0);
@@ -565,10 +632,26 @@ std::string verdict_statement(const SelectionResult& r) {
   std::vector<std::string> found;
   for (const auto& a : r.added) found.push_back(a.effect);
   if (!r.unexplained.empty()) {
-    const std::string structure = "structure remains that none of the library's effects explains (probe: " +
-                                  listed(r.unexplained, " and ") + ")";
-    return found.empty() ? "none of the library's effects explains the residual: " + structure
-                         : "consistent with " + listed(found, " and ") + ", but " + structure;
+    // Each probe by name, and where a scanned one found the structure.
+    std::vector<std::string> probes;
+    for (const auto& name : r.unexplained) {
+      std::string text = name;
+      for (auto t = r.tried.rbegin(); t != r.tried.rend(); ++t) {
+        if (t->effect != name || !t->passed || t->params.empty()) continue;
+        for (std::size_t i = 0; i < t->params.size(); ++i) {
+          char part[64];
+          std::snprintf(part, sizeof part, "%s%s %.3g", i == 0 ? " at " : ", ", t->params[i].name.c_str(),
+                        t->params[i].value);
+          text += part;
+        }
+        break;
+      }
+      probes.push_back(text);
+    }
+    const std::string where = "(probe: " + listed(probes, " and ") + ")";
+    return found.empty() ? "none of the library's effects explains the residual: structure remains " + where
+                         : "consistent with " + listed(found, " and ") +
+                               ", but structure remains that none of the library's effects explains " + where;
   }
   if (found.empty()) return "no structure beyond the baseline and its noise";
   return "consistent with " + listed(found, " and ");

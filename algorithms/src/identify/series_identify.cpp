@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <numbers>
 #include <stdexcept>
 #include <utility>
 
@@ -221,8 +222,12 @@ std::vector<double> log_grid(double lo, double hi, int count) {
 
 double se(const Eigen::MatrixXd& cov, Eigen::Index i) { return std::sqrt(std::max(0.0, cov(i, i))); }
 
-bool has_theta(const std::string& e) {
-  return e == "thermal_lag" || e == "ramp_hysteresis" || e == "warm_up";
+// Nonlinear parameters of an effect or probe (log10 of a time, each).
+int theta_count(const std::string& e) {
+  if (e == "thermal_lag" || e == "ramp_hysteresis" || e == "warm_up") return 1;
+  if (e == "periodic_structure") return 1;      // the period
+  if (e == "level_change_structure") return 2;  // its start and time constant
+  return 0;
 }
 
 struct GyroSetup {
@@ -248,8 +253,23 @@ int columns_of(const GyroSetup& s, const std::string& e) {
   if (e == "time_structure") return s.time_intervals + 2;
   if (e == "rate_structure") return kRateProbeIntervals + 2;
   if (e == "tec_structure") return 2;
+  if (e == "periodic_structure") return 2;  // sine and cosine
   return 1;
 }
+
+// The scanned probes (SelectionProblem::scan): a change of level, a -
+// a exp(-(t - t0) / tau) from t0 on (tau short: a step; long: a relaxation),
+// starting within 2..98 % of the record, tau from 1 min to an eighth of the
+// record (a change that completes within it: a longer one would pass for a
+// drift, which the library has);
+// a periodic term of 10 min to 40 % of the record (at least 2.5 cycles);
+// and the square of the rate (an even function of it, which the library's
+// rate effects, odd, do not make).
+constexpr double kProbeEdge = 0.02;
+constexpr double kMinLevelTauS = 60.0;
+constexpr double kMaxLevelTauShare = 0.125;
+constexpr double kMinPeriodS = 600.0;
+constexpr double kMaxPeriodShare = 0.4;
 
 // Uniform cubic B-spline of x over [lo, hi] without its first basis
 // function, into `cols` columns from `first`.
@@ -284,6 +304,25 @@ SeparableModel gyro_model(const GyroSetup& s, const std::vector<std::string>& ef
       m.theta_lower.push_back(1.0);
       m.theta_upper.push_back(hi);
       axes.push_back(log_grid(1.0, hi, 8));
+    } else if (e == "level_change_structure") {
+      // Starts come from the scan (SelectionProblem::scan); one grid point
+      // keeps the model whole without it.
+      const double lo = std::log10(kProbeEdge * s.duration_s);
+      const double hi = std::log10((1.0 - kProbeEdge) * s.duration_s);
+      m.theta_lower.push_back(lo);
+      m.theta_upper.push_back(hi);
+      axes.push_back({0.5 * (lo + hi)});
+      const double tau_lo = std::log10(kMinLevelTauS);
+      const double tau_hi = std::log10(std::max(2.0 * kMinLevelTauS, kMaxLevelTauShare * s.duration_s));
+      m.theta_lower.push_back(tau_lo);
+      m.theta_upper.push_back(tau_hi);
+      axes.push_back({0.5 * (tau_lo + tau_hi)});
+    } else if (e == "periodic_structure") {
+      const double lo = std::log10(kMinPeriodS);
+      const double hi = std::log10(std::max(2.0 * kMinPeriodS, kMaxPeriodShare * s.duration_s));
+      m.theta_lower.push_back(lo);
+      m.theta_upper.push_back(hi);
+      axes.push_back({0.5 * (lo + hi)});
     }
   }
   m.theta_grid = grid_product(axes);
@@ -303,7 +342,8 @@ SeparableModel gyro_model(const GyroSetup& s, const std::vector<std::string>& ef
     Eigen::Index c = base_cols;
     if (s.rate_nuisance) probe_spline(rate, s.rate_lo, s.rate_hi, kRateProbeIntervals, design, s.intervals + 3);
     for (const auto& e : effects) {
-      const double p = has_theta(e) ? std::pow(10.0, theta[t++]) : 0.0;
+      const double p = theta_count(e) > 0 ? std::pow(10.0, theta[t++]) : 0.0;
+      const double q = theta_count(e) > 1 ? std::pow(10.0, theta[t++]) : 0.0;
       if (e == "thermal_lag") {
         temp = gather(first_order_lag(b.temp_c, b.step_s, p), b.rows);
       } else if (e == "rate_sensitivity") {
@@ -323,6 +363,14 @@ SeparableModel gyro_model(const GyroSetup& s, const std::vector<std::string>& ef
       } else if (e == "tec_structure") {
         design.col(c) = gather(b.tec_a, b.rows);
         design.col(c + 1) = gather(b.tec_a2, b.rows);
+      } else if (e == "level_change_structure") {
+        design.col(c) = (time.array() >= p).select(1.0 - (-(time.array() - p) / q).exp(), 0.0);
+      } else if (e == "rate_squared_structure") {
+        design.col(c) = (rate * 60.0).array().square().matrix();  // (C/min)^2
+      } else if (e == "periodic_structure") {
+        const Eigen::ArrayXd phase = time.array() * (2.0 * std::numbers::pi / p);
+        design.col(c) = phase.sin().matrix();
+        design.col(c + 1) = phase.cos().matrix();
       }
       c += columns_of(s, e);
     }
@@ -340,7 +388,7 @@ EffectReadout gyro_readout(const GyroSetup& s, const std::string& effect,
   for (const auto& e : effects) {
     if (e == effect) break;
     col += columns_of(s, e);
-    th += has_theta(e) ? 1 : 0;
+    th += theta_count(e);
   }
   EffectReadout out;
   out.in_bounds = true;
@@ -375,7 +423,155 @@ EffectReadout gyro_readout(const GyroSetup& s, const std::string& effect,
   } else if (effect == "linear_drift") {
     out.params = {{"d_mv_per_h", fit.beta(col), se(cov, col)}};
     out.t_ratio = ratio(col, fit.beta(col));
+  } else if (effect == "level_change_structure") {
+    // Where it is in the temperature history too: the casing then, and the
+    // highest it had been before (a change at a first passage above a
+    // temperature shows as casing_c near max_before_c).
+    const auto at = [&](Eigen::Index i) { return std::pow(10.0, fit.theta[static_cast<std::size_t>(i - n_beta)]); };
+    const double t0 = at(th);
+    const Bins& b = s.bins;
+    double casing_c = b.temp_c(0);
+    double max_before_c = b.temp_c(0);
+    for (Eigen::Index i = 0; i < b.time_s.size() && b.time_s(i) < t0; ++i) {
+      casing_c = b.temp_c(i);
+      max_before_c = std::max(max_before_c, b.temp_c(i));
+    }
+    out.params = {{"a_mv", fit.beta(col), se(cov, col)},
+                  {"t0_s", t0, t0 * kLn10 * se(cov, th)},
+                  {"tau_s", at(th + 1), at(th + 1) * kLn10 * se(cov, th + 1)},
+                  {"casing_c", casing_c, 0.0},
+                  {"max_before_c", max_before_c, 0.0}};
+    out.t_ratio = ratio(col, fit.beta(col));
+  } else if (effect == "periodic_structure") {
+    // The amplitude's joint Wald ratio (sine and cosine); the long-run
+    // factor is the larger of the two columns'. Without it the best period of
+    // a record with none, the wander's largest excursion, was credited with
+    // the wander its refit then lacked (null records flagged at p = 4e-7,
+    // the sweep's run 4).
+    out.amplitude_index = col;
+    out.second_amplitude_index = col + 1;
+    const Eigen::Vector2d a(fit.beta(col), fit.beta(col + 1));
+    const Eigen::Matrix2d c = cov.block(col, col, 2, 2);
+    const double amplitude = a.norm();
+    const double wald = c.determinant() > 0.0 ? a.dot(c.ldlt().solve(a)) : 1e18;
+    const double period = std::pow(10.0, fit.theta[static_cast<std::size_t>(th - n_beta)]);
+    out.params = {{"amplitude_mv", amplitude, amplitude > 0.0 ? std::sqrt(a.dot(c * a)) / amplitude : 0.0},
+                  {"period_s", period, period * kLn10 * se(cov, th)}};
+    out.t_ratio = std::sqrt(std::max(0.0, wald));
+  } else if (effect == "rate_squared_structure") {
+    out.params = {{"k_mv_per_c2_per_min2", fit.beta(col), se(cov, col)}};
+    out.t_ratio = ratio(col, fit.beta(col));
   }
+  return out;
+}
+
+// A probe's starts from the current model's least-squares residual r (bins
+// at times t) and design X: the three best alternatives of its kind by the
+// sum of squares its column takes from r with X partialled out (g'r)^2 /
+// g'(I - X (X'X)^-1 X')g -- without the partialling a change the bias curve
+// has half absorbed would be looked for where the curve could not reach --
+// and how many distinguishable alternatives a scan of its kind looks at
+// (record / tau per time constant tried; record / 10 min periods).
+ProbeScan scan_probe(const GyroSetup& s, const std::string& probe, const Eigen::VectorXd& r,
+                     const Eigen::MatrixXd& design) {
+  ProbeScan out;
+  if (probe == "rate_squared_structure") {
+    out.starts = {{}};  // nothing to scan: tested as an effect is
+    return out;
+  }
+  const Eigen::VectorXd t = gather(s.bins.time_s, s.bins.rows);
+  const Eigen::Index n = t.size();
+  if (n < 10 || design.rows() != n) return out;
+  const double duration = s.duration_s;
+  // X with unit columns, and the Cholesky factor of X'X (a tiny ridge for
+  // the spline's empty intervals).
+  Eigen::MatrixXd x = design;
+  for (Eigen::Index j = 0; j < x.cols(); ++j) {
+    const double norm = x.col(j).norm();
+    x.col(j) = norm > 0.0 ? Eigen::VectorXd(x.col(j) / norm) : Eigen::VectorXd::Zero(n);
+  }
+  const Eigen::LDLT<Eigen::MatrixXd> xx(gram_matrix(x) + 1e-9 * Eigen::MatrixXd::Identity(x.cols(), x.cols()));
+  struct Found {
+    double share;
+    std::vector<double> theta;
+  };
+  std::vector<Found> found;
+  // A column the model's own columns (the bias curve above all) take more
+  // than 90 % of is one the record cannot tell from them: left out, as its
+  // ratio would be noise over almost nothing.
+  constexpr double kMinIndependentShare = 0.1;
+  const auto in_window = [&](double time) {
+    return time >= kProbeEdge * duration && time <= (1.0 - kProbeEdge) * duration;
+  };
+  if (probe == "level_change_structure") {
+    // For each tau, every start t_i at once by backward recursions: with
+    // e_j = exp(-(t_j - t_i) / tau), g = 1 - e on j >= i, the sums over j >= i
+    // of x_j, x_j e_j, r_j, r_j e_j, e_j and e_j^2.
+    out.alternatives = 0.0;
+    for (double tau : {120.0, 600.0, 1800.0, 3600.0}) {
+      if (tau > kMaxLevelTauShare * duration) continue;
+      out.alternatives += duration / tau;
+      Eigen::VectorXd sx = Eigen::VectorXd::Zero(x.cols());
+      Eigen::VectorXd ex = Eigen::VectorXd::Zero(x.cols());
+      double sr = 0.0, er = 0.0, e1 = 0.0, e2 = 0.0;
+      for (Eigen::Index i = n - 1; i >= 0; --i) {
+        const double decay = i + 1 < n ? std::exp(-(t(i + 1) - t(i)) / tau) : 0.0;
+        sx += x.row(i).transpose();
+        ex = x.row(i).transpose() + decay * ex;
+        sr += r(i);
+        er = r(i) + decay * er;
+        e1 = 1.0 + decay * e1;
+        e2 = 1.0 + decay * decay * e2;
+        if (!in_window(t(i))) continue;
+        const double gr = sr - er;
+        const Eigen::VectorXd xg = sx - ex;
+        const double sum_g = static_cast<double>(n - i) - e1;
+        const double gg_raw = static_cast<double>(n - i) - 2.0 * e1 + e2;
+        const double gg = gg_raw - xg.dot(xx.solve(xg));
+        if (gg > kMinIndependentShare * (gg_raw - sum_g * sum_g / static_cast<double>(n))) {
+          found.push_back({gr * gr / gg, {std::log10(t(i)), std::log10(tau)}});
+        }
+      }
+    }
+  } else if (probe == "periodic_structure") {
+    const double max_period = kMaxPeriodShare * duration;
+    if (max_period < kMinPeriodS) return out;
+    // Frequencies 1 / (2 x record) apart: the LM refines the best.
+    const double df = 0.5 / duration;
+    out.alternatives = duration * (1.0 / kMinPeriodS - 1.0 / max_period);
+
+    Eigen::MatrixXd g(n, 2);
+    for (double f = 1.0 / max_period; f <= 1.0 / kMinPeriodS; f += df) {
+      const Eigen::ArrayXd phase = t.array() * (2.0 * std::numbers::pi * f);
+      g.col(0) = phase.sin().matrix();
+      g.col(1) = phase.cos().matrix();
+      const Eigen::MatrixXd xg = x.transpose() * g;
+      const Eigen::Matrix2d gg_raw = g.transpose() * g;
+      const Eigen::Matrix2d gg = gg_raw - xg.transpose() * xx.solve(xg);
+      const Eigen::Vector2d gr = g.transpose() * r;
+      const Eigen::LDLT<Eigen::Matrix2d> ggl(gg);
+      if (ggl.info() == Eigen::Success && gg.determinant() > kMinIndependentShare * kMinIndependentShare * gg_raw.determinant()) {
+        found.push_back({gr.dot(ggl.solve(gr)), {std::log10(1.0 / f)}});
+      }
+    }
+  } else {
+    return out;
+  }
+  std::sort(found.begin(), found.end(), [](const Found& a, const Found& b) { return a.share > b.share; });
+  // The three best that are not neighbours of a better one (1 % of the
+  // record apart in time, 1 / record in frequency).
+  for (const Found& f : found) {
+    if (out.starts.size() >= 3) break;
+    bool near = false;
+    for (const auto& st : out.starts) {
+      const double a = std::pow(10.0, st[0]);
+      const double b = std::pow(10.0, f.theta[0]);
+      near = near || (probe == "periodic_structure" ? std::fabs(1.0 / a - 1.0 / b) * duration < 1.0
+                                                     : std::fabs(a - b) < 0.01 * duration);
+    }
+    if (!near) out.starts.push_back(f.theta);
+  }
+  out.alternatives = std::max(1.0, out.alternatives);
   return out;
 }
 
@@ -633,11 +829,26 @@ Identification identify_series(const SeriesRecord& record, SeriesTarget target,
       problem.candidates.push_back("linear_drift");
     } else {
       notes.emplace_back(
-          "linear_drift not tried: across a gap the record cannot tell a drift from the bias wander, whose level "
-          "change there it knows only from the wander the bias curve leaves within the segments (record without "
-          "gaps to test for a drift)");
+          "linear_drift not tried (nor a change of level, level_change_structure): across a gap the record cannot "
+          "tell a drift or a step from the bias wander, whose level change there it knows only from the wander the "
+          "bias curve leaves within the segments (record without gaps to test for either)");
     }
     problem.probes.insert(problem.probes.begin(), "time_structure");
+    // Structure no catch-all finds under the noise the current model leaves
+    // (it takes a step, a relaxation or a periodic term for wander): a change
+    // of level (a step, a relaxation after an event), a periodic term, and
+    // where the trajectory effects were tried an even function of the rate;
+    // each found by a scan and tested as effects are, with its own wander.
+    // A change of level is a drift's kin: across a gap it would be read
+    // from the wander's free level change there (null records with a 1 h gap
+    // were flagged with a 0.2 mV step just before it).
+    if (grid.gaps == 0) problem.probes.push_back("level_change_structure");
+    problem.probes.push_back("periodic_structure");
+    if (!gyro_setup.rate_nuisance) problem.probes.push_back("rate_squared_structure");
+    problem.scan = [&gyro_setup](const std::string& probe, const Eigen::VectorXd& residual,
+                                 const Eigen::MatrixXd& design) {
+      return scan_probe(gyro_setup, probe, residual, design);
+    };
     if (!record.tec_a.empty()) {
       const Eigen::VectorXd tec = bins.tec_a.array() - bins.tec_a.mean();
       if (tec.norm() / std::sqrt(static_cast<double>(n)) > 0.01) problem.probes.push_back("tec_structure");

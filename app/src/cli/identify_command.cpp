@@ -135,6 +135,8 @@ nlohmann::json to_json(const id::Identification& r, double elapsed_s) {
   }
   j["tried"] = json::array();
   for (const auto& t : r.tried) {
+    json where = json::object();
+    for (const auto& p : t.params) where[p.name] = p.value;
     j["tried"].push_back({{"round", t.round},
                           {"effect", t.effect},
                           {"delta_bic", t.delta_bic},
@@ -145,7 +147,8 @@ nlohmann::json to_json(const id::Identification& r, double elapsed_s) {
                           {"t_ratio", t.t_ratio},
                           {"in_bounds", t.in_bounds},
                           {"passed", t.passed},
-                          {"reason", t.reason}});
+                          {"reason", t.reason},
+                          {"params", where}});
   }
   j["verdict"] = r.verdict;
   j["statement"] = r.statement;

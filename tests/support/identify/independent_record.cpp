@@ -42,6 +42,7 @@ Chamber chamber_programme(const IndependentSpec& s, std::mt19937_64& rng) {
   while (c.t.back() < s.duration_s) {
     double to = level(rng);
     while (std::fabs(to - c.level.back()) < 0.2 * (s.high_c - s.low_c)) to = level(rng);
+    if (c.t.size() == 2 && std::isfinite(s.first_level_c)) to = s.first_level_c;
     c.t.push_back(c.t.back() + std::fabs(to - c.level.back()) / rate(rng));
     c.level.push_back(to);
     c.t.push_back(c.t.back() + hold(rng));
@@ -111,6 +112,8 @@ identify::SeriesRecord make_independent_record(const IndependentSpec& s) {
     mv += s.ambient_mv_per_c * (chamber.at(t) - 25.0);
     mv += s.periodic_mv * std::sin(2.0 * std::numbers::pi * t / s.periodic_s);
     if (relax_start >= 0.0) mv += s.relaxation_mv * (1.0 - std::exp(-(t - relax_start) / kRelaxationTauS));
+    if (t >= s.step_at_s) mv += s.step_mv;
+    mv += s.rate_squared_mv * (rate * 60.0) * (rate * 60.0);
 
     const double read_c = std::round(history.front().second / kQuantumC) * kQuantumC;
     r.time_s.push_back(t);

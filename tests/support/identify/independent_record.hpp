@@ -1,6 +1,7 @@
 #pragma once
 
 #include <cstdint>
+#include <limits>
 #include <utility>
 #include <vector>
 
@@ -17,7 +18,8 @@
 //  - gyro noise: white plus a Gauss-Markov wander of the bias (correlation
 //    time wander_tau_s), the bias instability of a real gyro;
 //  - hidden effects implemented here from their physical definitions, and
-//    one outside the library of `identify` (stress relaxation).
+//    four outside the library of `identify` (a stress relaxation, a periodic
+//    disturbance, a step, an even function of the rate).
 namespace gyrotc::identify_test {
 
 struct IndependentSpec {
@@ -28,6 +30,9 @@ struct IndependentSpec {
   double high_c = 70.0;
   double min_ramp_c_per_min = 0.3;  // chamber ramps at random rates in this range
   double max_ramp_c_per_min = 1.5;
+  // The chamber's first level after the 20 C hold (NaN: random, as the
+  // rest): a record that must pass a temperature early (the relaxation's).
+  double first_level_c = std::numeric_limits<double>::quiet_NaN();
   double shell_tau_s = 600.0;   // chamber -> shell
   double casing_tau_s = 200.0;  // shell -> casing
   double white_mv = 0.15;   // per sample
@@ -52,6 +57,14 @@ struct IndependentSpec {
   // lab's air conditioning cycling), amplitude and period.
   double periodic_mv = 0.0;
   double periodic_s = 5400.0;
+  // Not in the library: the bias steps by step_mv at step_at_s (a mount
+  // shifting, a solder joint giving way).
+  double step_mv = 0.0;
+  double step_at_s = 3.0 * 3600.0;
+  // Not in the library: a bias that follows the square of the casing's rate
+  // (a gradient across the package that bends it the same way heating or
+  // cooling), in mV per (C/min)^2.
+  double rate_squared_mv = 0.0;
 
   std::uint64_t seed = 1;
 };

@@ -19,6 +19,13 @@ struct Criteria {
   // samples; each was calibrated on simulated records of its kind.
   double max_p_value = 1e-5;
   double max_p_value_table = 1e-3;
+  // The scanned probes (a change of level, a periodic term, the rate
+  // squared): their p-value, already multiplied by the alternatives scanned,
+  // rests on a wander refitted after them, which falls short of the true
+  // wander's slow power (docs/IDENTIFY.md): on development seeds a 0.4 mV
+  // change under 1000 s wander came to 9e-6 and a 0.13 mV periodic term
+  // under 300 s wander to 1e-6 on records with no such structure.
+  double max_p_value_probe = 1e-6;
   // |parameter| / standard error of the effect's amplitude (time series;
   // on tables the F-test is the amplitude's test).
   double min_t_ratio = 4.0;
@@ -66,6 +73,9 @@ struct CandidateScore {
   bool in_bounds = false;
   bool passed = false;
   std::string reason;  // empty when passed
+  // A scanned probe's fitted parameters (where the structure is: a level
+  // change's time and size, a period); empty otherwise.
+  std::vector<EffectParam> params;
 };
 
 struct Region {

@@ -35,8 +35,19 @@ struct EffectReadout {
   double t_ratio = 0.0;             // |amplitude| / standard error
   bool in_bounds = false;           // every parameter physically plausible
   // Index of the amplitude in [beta; theta] (series: its long-run variance
-  // is checked; -1 = none).
+  // is checked; -1 = none), and of a second one whose factor counts too
+  // (a periodic term's sine and cosine).
   Eigen::Index amplitude_index = -1;
+  Eigen::Index second_amplitude_index = -1;
+};
+
+// Where a scanned probe starts: its theta at the alternatives a scan of the
+// current model's residual found best, and how many alternatives the scan
+// looked at (the probe's p-value is multiplied by that: it is the best of
+// many).
+struct ProbeScan {
+  std::vector<std::vector<double>> starts;
+  double alternatives = 1.0;
 };
 
 struct SelectionProblem {
@@ -46,6 +57,14 @@ struct SelectionProblem {
   // one that passes means structure remains that no library effect explains.
   // Never added to the model.
   std::vector<std::string> probes;
+  // Probes with a few parameters a scan finds (a level change's time, a
+  // period): no catch-all, so they are tested as library effects are (each
+  // model with its own wander, the amplitude's long-run variance and
+  // t-ratio; `readout` is called for them), from the starts the scan of the
+  // current model's least-squares residual and design gives. No starts: an
+  // ordinary probe. May be empty.
+  std::function<ProbeScan(const std::string& probe, const Eigen::VectorXd& residual, const Eigen::MatrixXd& design)>
+      scan;
   // The model with these effects (and probes) switched on (empty = baseline).
   std::function<SeparableModel(const std::vector<std::string>& effects)> build;
   // Parameters of `effect` in a fit of the model with `effects`; covariance
