@@ -494,6 +494,9 @@ SelectionResult select_effects(const SelectionProblem& problem, const Criteria& 
     if (progress) progress(std::min(0.99, ++steps / total_steps));
   };
 
+  // Scanned probes already tried on the current model (a round they outdid
+  // ends the search with the model as it was): not tried again below.
+  std::vector<std::string> probed_current;
   for (int round = 1; round <= static_cast<int>(problem.candidates.size()); ++round) {
     std::vector<Trial> passed;
     for (const auto& effect : problem.candidates) {
@@ -543,6 +546,7 @@ SelectionResult select_effects(const SelectionProblem& problem, const Criteria& 
       for (const auto& probe : problem.probes) {
         Trial t = try_candidate(problem, criteria, current, scored, effects, probe, round, true);
         if (!t.scanned) continue;
+        probed_current.push_back(probe);
         result.tried.push_back(t.score);
         if (!t.score.passed) continue;
         const Scored common = score(problem, t.scored.model, t.scored.fit, &reference);
@@ -558,6 +562,7 @@ SelectionResult select_effects(const SelectionProblem& problem, const Criteria& 
         }
       }
       if (outdone) break;
+      probed_current.clear();  // the best candidate joins the model below
     }
     const Trial& best = *standings.front().trial;
     std::vector<std::string> tied{best.effect};
@@ -594,6 +599,7 @@ SelectionResult select_effects(const SelectionProblem& problem, const Criteria& 
   if (result.ambiguous.empty()) {
     for (const auto& probe : problem.probes) {
       step();
+      if (std::find(probed_current.begin(), probed_current.end(), probe) != probed_current.end()) continue;
       Trial trial = try_candidate(problem, criteria, current, scored, effects, probe, 0, true);
       result.tried.push_back(trial.score);
       if (trial.score.passed &&
