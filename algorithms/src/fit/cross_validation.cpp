@@ -32,6 +32,80 @@ std::vector<double> loo_residuals(std::span<const double> temp_c, std::span<cons
   return out;
 }
 
+std::vector<std::vector<std::size_t>> held_out_blocks(std::span<const double> temp_c, double block_c) {
+  if (!(block_c >= 0.0) || !std::isfinite(block_c)) throw std::invalid_argument("held-out block: width must be >= 0");
+  std::vector<std::vector<std::size_t>> blocks(temp_c.size());
+  for (std::size_t i = 0; i < temp_c.size(); ++i) {
+    blocks[i].push_back(i);
+    if (block_c == 0.0) continue;
+    for (std::size_t j = 0; j < temp_c.size(); ++j) {
+      if (j != i && std::abs(temp_c[j] - temp_c[i]) <= block_c) blocks[i].push_back(j);
+    }
+  }
+  return blocks;
+}
+
+std::vector<double> block_residuals(std::span<const double> temp_c, std::span<const double> value,
+                                    const Fitter& fitter, double block_c, std::size_t min_kept) {
+  if (block_c == 0.0) return loo_residuals(temp_c, value, fitter);
+  const std::size_t n = temp_c.size();
+  if (n < 2 || value.size() != n) throw std::invalid_argument("held-out blocks: need at least 2 points");
+  const auto [lo, hi] = std::minmax_element(temp_c.begin(), temp_c.end());
+  const auto blocks = held_out_blocks(temp_c, block_c);
+  std::vector<double> out(n);
+  std::vector<char> left(n);
+  std::vector<double> t;
+  std::vector<double> v;
+  for (std::size_t k = 0; k < n; ++k) {
+    const bool whole = n - blocks[k].size() >= min_kept;
+    std::fill(left.begin(), left.end(), 0);
+    if (whole) {
+      for (std::size_t j : blocks[k]) left[j] = 1;
+    } else {
+      left[k] = 1;
+    }
+    t.clear();
+    v.clear();
+    for (std::size_t i = 0; i < n; ++i) {
+      if (left[i]) continue;
+      t.push_back(temp_c[i]);
+      v.push_back(value[i]);
+    }
+    out[k] = value[k] - fitter(t, v, *lo, *hi).bias_mv(temp_c[k]);
+  }
+  return out;
+}
+
+std::vector<double> linear_smoother_block_residuals(const Eigen::MatrixXd& hat, const Eigen::VectorXd& y,
+                                                    const std::vector<std::vector<std::size_t>>& blocks) {
+  const Eigen::Index n = y.size();
+  const Eigen::VectorXd e = y - hat * y;
+  std::vector<double> out(static_cast<std::size_t>(n));
+  for (Eigen::Index i = 0; i < n; ++i) {
+    const auto& b = blocks[static_cast<std::size_t>(i)];  // b[0] is i itself
+    const auto m = static_cast<Eigen::Index>(b.size());
+    if (m == 1) {
+      out[static_cast<std::size_t>(i)] = e(i) / std::max(1.0 - hat(i, i), 1e-12);
+      continue;
+    }
+    Eigen::MatrixXd a(m, m);
+    Eigen::VectorXd eb(m);
+    for (Eigen::Index r = 0; r < m; ++r) {
+      const auto br = static_cast<Eigen::Index>(b[static_cast<std::size_t>(r)]);
+      eb(r) = e(br);
+      for (Eigen::Index c = 0; c < m; ++c) {
+        a(r, c) = (r == c ? 1.0 : 0.0) - hat(br, static_cast<Eigen::Index>(b[static_cast<std::size_t>(c)]));
+      }
+    }
+    const Eigen::FullPivLU<Eigen::MatrixXd> lu(a);
+    // A block the fit cannot do without (I - hat_BB singular: the rest does
+    // not determine the model) predicts its point as leave-one-out does.
+    out[static_cast<std::size_t>(i)] =
+        lu.isInvertible() ? lu.solve(eb)(0) : e(i) / std::max(1.0 - hat(i, i), 1e-12);
+  }
+  return out;
+}
+
 std::vector<double> residuals(const BiasModel& model, std::span<const double> temp_c,
                               std::span<const double> value) {
   std::vector<double> out(temp_c.size());

@@ -97,6 +97,12 @@ std::size_t choose(std::vector<Candidate>& candidates) {
 
 const char* kOneSeRule = "the fewest effective parameters within one standard error of the best LOO mean square";
 
+// How the candidates' held-out residuals were formed.
+std::string held_out_name(double block_c) {
+  if (block_c == 0.0) return "leave-one-out";
+  return "leave-block-out (each point held out with every point within " + number(block_c) + " C of it)";
+}
+
 Prepared polynomial_of_order(std::span<const double> t, std::span<const double> v, int order, double lo,
                              double hi, std::string choice) {
   const PolynomialFit fit = fit_polynomial(t, v, order, lo, hi);
@@ -109,11 +115,12 @@ Prepared polynomial_of_order(std::span<const double> t, std::span<const double> 
 }
 
 // Orders 0 .. the supported order, each with its closed-form LOO.
-std::vector<Candidate> polynomial_candidates(std::span<const double> t, std::span<const double> v, int max_order) {
+std::vector<Candidate> polynomial_candidates(std::span<const double> t, std::span<const double> v, int max_order,
+                                             double block_c = 0.0) {
   std::vector<Candidate> out;
   const int top = supported_polynomial_order(t.size(), max_order);
   for (int o = 0; o <= top; ++o) {
-    out.push_back(candidate("poly " + std::to_string(o), o + 1.0, polynomial_loo_residuals(t, v, o)));
+    out.push_back(candidate("poly " + std::to_string(o), o + 1.0, polynomial_loo_residuals(t, v, o, block_c)));
   }
   return out;
 }
@@ -124,13 +131,14 @@ Prepared prepare_polynomial(std::span<const double> t, std::span<const double> v
                             double lo, double hi) {
   if (o.orders.size() > 1) throw std::invalid_argument("poly: takes one order");
   if (o.orders.empty()) {
-    std::vector<Candidate> candidates = polynomial_candidates(t, v, o.max_poly_order);
+    std::vector<Candidate> candidates = polynomial_candidates(t, v, o.max_poly_order, o.cv_block_c);
     if (candidates.empty()) throw std::invalid_argument("poly: need at least 3 points");
     const int order = order_of(candidates[choose(candidates)]);
     Prepared p = polynomial_of_order(t, v, order, lo, hi,
                                      "order " + std::to_string(order) + " of 0.." +
                                          std::to_string(order_of(candidates.back())) +
-                                         " (at least 3 points per coefficient): " + kOneSeRule);
+                                         " (at least 3 points per coefficient) by " + held_out_name(o.cv_block_c) +
+                                         ": " + kOneSeRule);
     p.candidates = std::move(candidates);
     return p;
   }
@@ -243,7 +251,7 @@ Prepared prepare_smoothing(std::span<const double> t, std::span<const double> v,
                 penalty_name(o.penalty), t.size(), fit.dof);
   std::string choice;
   if (o.dof == 0.0) {
-    choice = std::string("smoothing by ") + (o.criterion == SmoothingCriterion::loo ? "leave-one-out" : "GCV") +
+    choice = "smoothing by " + (o.criterion == SmoothingCriterion::loo ? held_out_name(o.block_c) : std::string("GCV")) +
              " (lambda " + number(fit.lambda) + ")";
   }
   return Prepared{BiasModel::spline(fit.spline), Method::smoothing, structure, std::move(choice), 0.0, fit.dof,
@@ -273,14 +281,15 @@ Prepared prepare_bp(std::span<const double> t, std::span<const double> v, const 
 // the interpolating spline) and chosen by the one-standard-error rule.
 Prepared prepare_automatic(std::span<const double> t, std::span<const double> v, const MethodOptions& o,
                            double lo, double hi) {
-  std::vector<Candidate> candidates = polynomial_candidates(t, v, o.max_poly_order);
+  std::vector<Candidate> candidates = polynomial_candidates(t, v, o.max_poly_order, o.cv_block_c);
   std::optional<Prepared> spline;
   if (t.size() >= 4) {
     spline = prepare_spline(t, v, lo, hi);
-    candidates.push_back(candidate("spline", spline->dof, loo_residuals(t, v, spline->fitter)));
+    candidates.push_back(candidate("spline", spline->dof, block_residuals(t, v, spline->fitter, o.cv_block_c, 4)));
   }
   SmoothingOptions so = o.smoothing;
   so.dof = 0.0;
+  so.block_c = o.cv_block_c;
   const std::size_t smooth_min = so.penalty == SmoothingPenalty::third_derivative_jumps ? 6 : 4;
   if (t.size() >= smooth_min && t.size() <= kMaxSmoothingPoints) {
     const SmoothingSplineFit smooth = fit_smoothing_spline(t, v, so, lo, hi);
@@ -291,7 +300,7 @@ Prepared prepare_automatic(std::span<const double> t, std::span<const double> v,
   const std::string& name = candidates[chosen].name;
   std::string compared;
   for (const Candidate& c : candidates) compared += (compared.empty() ? "" : ", ") + c.name;
-  std::string choice = "auto chose " + name + " of " + compared + " by leave-one-out: " + kOneSeRule;
+  std::string choice = "auto chose " + name + " of " + compared + " by " + held_out_name(o.cv_block_c) + ": " + kOneSeRule;
   Prepared p = name == "spline"   ? std::move(*spline)
                : name == "smooth" ? prepare_smoothing(t, v, so, lo, hi)
                                   : polynomial_of_order(t, v, order_of(candidates[chosen]), lo, hi, "");

@@ -6,6 +6,8 @@
 #include <stdexcept>
 #include <string>
 
+#include "gyrotc/algorithms/fit/cross_validation.hpp"
+
 namespace gyrotc::fit {
 
 namespace {
@@ -73,7 +75,7 @@ PolynomialFit fit_polynomial(std::span<const double> temp_c, std::span<const dou
 }
 
 std::vector<double> polynomial_loo_residuals(std::span<const double> temp_c,
-                                             std::span<const double> value, int order) {
+                                             std::span<const double> value, int order, double block_c) {
   check_input(temp_c, value, order, static_cast<std::size_t>(order) + 2);
   const auto [lo, hi] = std::minmax_element(temp_c.begin(), temp_c.end());
   if (!(*lo < *hi)) throw std::invalid_argument("all temperatures are equal");
@@ -86,6 +88,9 @@ std::vector<double> polynomial_loo_residuals(std::span<const double> temp_c,
   // Thin Q of V: fitted values Q Q'y, leverage h_ii = |row i of Q|^2.
   const Eigen::MatrixXd q = qr.householderQ() * Eigen::MatrixXd::Identity(v.rows(), v.cols());
   const Eigen::Map<const Eigen::VectorXd> y(value.data(), static_cast<Eigen::Index>(value.size()));
+  if (block_c > 0.0) {
+    return linear_smoother_block_residuals(q * q.transpose(), y, held_out_blocks(temp_c, block_c));
+  }
   const Eigen::VectorXd fitted = q * (q.transpose() * y);
   std::vector<double> loo(temp_c.size());
   for (std::size_t i = 0; i < temp_c.size(); ++i) {

@@ -11,6 +11,8 @@
 #include <string>
 #include <utility>
 
+#include "gyrotc/algorithms/fit/cross_validation.hpp"
+
 namespace gyrotc::fit {
 
 namespace {
@@ -194,7 +196,9 @@ Curvature curvature_penalty(const std::vector<double>& x) {
 // K = Q R^-1 Q': the hat matrix is A = U diag(1 / (1 + lambda d)) U'.
 class DemmlerReinsch {
  public:
-  DemmlerReinsch(const Eigen::MatrixXd& k, const std::vector<double>& y) {
+  DemmlerReinsch(const Eigen::MatrixXd& k, const std::vector<double>& y,
+                 std::vector<std::vector<std::size_t>> blocks = {})
+      : blocks_(std::move(blocks)) {
     const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(0.5 * (k + k.transpose()));
     d_ = eig.eigenvalues().cwiseMax(0.0);
     u_ = eig.eigenvectors();
@@ -222,6 +226,11 @@ class DemmlerReinsch {
 
   Eigen::VectorXd loo_residuals(double lambda) const {
     const Eigen::ArrayXd s = 1.0 / (1.0 + lambda * d_.array());
+    if (!blocks_.empty()) {
+      const Eigen::MatrixXd hat = u_ * s.matrix().asDiagonal() * u_.transpose();
+      const std::vector<double> r = linear_smoother_block_residuals(hat, y_, blocks_);
+      return Eigen::Map<const Eigen::VectorXd>(r.data(), static_cast<Eigen::Index>(r.size()));
+    }
     const Eigen::VectorXd r = y_ - u_ * (s * z_.array()).matrix();
     const Eigen::VectorXd leverage = u2_ * s.matrix();
     // A leverage of 1 (interpolation) only at lambda = 0, never on the grid.
@@ -246,6 +255,7 @@ class DemmlerReinsch {
   Eigen::VectorXd y_;
   Eigen::VectorXd z_;
   double n_ = 0.0;
+  std::vector<std::vector<std::size_t>> blocks_;  // empty: leave one out
 };
 
 // log10 lambda minimising the criterion: a grid of 20 points per decade, the
@@ -338,7 +348,8 @@ SmoothingSplineFit fit_smoothing_spline(std::span<const double> temp_c, std::spa
   std::optional<Curvature> curvature;
   if (!jumps) curvature = curvature_penalty(s.x);
   const DemmlerReinsch dr(jumps ? jump_penalty(s.x) : Eigen::MatrixXd(curvature->q * curvature->r.solve(curvature->q.transpose())),
-                          s.y);
+                          s.y, options.block_c > 0.0 ? held_out_blocks(s.x, options.block_c)
+                                                     : std::vector<std::vector<std::size_t>>{});
   if (options.lambda < 0.0 || !std::isfinite(options.lambda)) {
     throw std::invalid_argument("smoothing spline: lambda must be a positive number");
   }

@@ -147,8 +147,9 @@ void add_calibrate_command(CLI::App& app) {
       "casing from 12 C below the ambient to 12 C above the setpoint (never within 5 C of [failsafe]\n"
       "over_temp_c; an end the stage cannot reach at this ambient is where it stalls) and back, at 0.6 C/min,\n"
       "every temperature crossed once each way so the die's lag cancels (at most 4 h at 20 C); then fits the\n"
-      "record as `gyrotc fit --method auto` (nested leave-one-out) and writes the calibration file. Refused\n"
-      "when the range reached does not cover the ambient of the run up to the setpoint.\n"
+      "record as `gyrotc fit --method auto` does (each 1 C bin held out with the bins within 2 C of it, which\n"
+      "share the gyro's bias wander) and writes the calibration file. Refused when the range reached does\n"
+      "not cover the ambient of the run up to the setpoint.\n"
       "On the board: --config (the service stopped: the run holds the board; every fail-safe on, safe-off on\n"
       "any signal). Without hardware: --data, the record of `gyrotc simulate --profile selfcal --out DIR`.");
   cmd->add_option("-c,--config", o->config,

@@ -41,6 +41,7 @@ struct FitOptions {
   std::vector<double> breakpoints_c;
   std::string continuity = "value";
   std::string criterion = "loo";
+  std::optional<double> cv_block_c;  // default: two bins for a time series, none for a table
   std::string penalty = "jumps";
   double dof = 0.0;
   std::string out;
@@ -200,13 +201,34 @@ fit::SmoothingOptions smoothing_options(const FitOptions& o) {
   return so;
 }
 
-fit::MethodOptions method_options(const FitOptions& o, fit::Method m) {
+// The held-out block: a recording's neighbouring bins are crossed one after
+// the other and share the gyro's correlated noise (its bias wanders over
+// minutes; a sweep at 0.6 C/min crosses a 1 C bin in 100 s), so each bin is
+// predicted without the bins within two widths of it. A table's rows are
+// separate soaks: leave one out.
+double cv_block_c(const FitOptions& o, const Points& p) {
+  const double block_c = o.cv_block_c.value_or(p.samples > 0 ? 2.0 * o.bin_width_c : 0.0);
+  const auto [lo, hi] = std::minmax_element(p.temp_c.begin(), p.temp_c.end());
+  // A wider block leaves the folds too little to fit and to tell models apart.
+  const double widest_c = 0.25 * (*hi - *lo);
+  if (block_c > widest_c) {
+    char buf[200];
+    std::snprintf(buf, sizeof buf, "--cv-block %g: wider than a quarter of the data's %.1f C range (at most %.1f C)",
+                  block_c, *hi - *lo, widest_c);
+    throw InputError(buf);
+  }
+  return block_c;
+}
+
+fit::MethodOptions method_options(const FitOptions& o, fit::Method m, const Points& p) {
   fit::MethodOptions mo;
   mo.method = m;
   mo.orders = o.orders;
   mo.breakpoints_c = o.breakpoints_c;
   mo.continuity = parse_continuity(o.continuity);
   mo.smoothing = smoothing_options(o);
+  mo.cv_block_c = cv_block_c(o, p);
+  mo.smoothing.block_c = mo.cv_block_c;
   mo.bp.seed = o.seed;
   mo.bp.hidden = o.hidden;
   mo.bp.restarts = o.restarts;
@@ -417,7 +439,7 @@ void run_single(const FitOptions& o) {
     throw InputError("--method: expected poly, piecewise, spline, smooth, bpnn, paper or auto, got '" + o.method + "'");
   }
   const Points p = read_points(o);
-  const fit::MethodOptions mo = method_options(o, *method);
+  const fit::MethodOptions mo = method_options(o, *method, p);
   Progress progress(o.nested ? "fitting, then nested leave-one-out" : "fitting");
   const fit::MethodFit f = run_fit(p, mo, o.data);
   progress.update(0.5);
@@ -459,7 +481,8 @@ void run_single(const FitOptions& o) {
                    {"input", p.kind},
                    {"points", p.temp_c.size()},
                    {"range_c", {*lo, *hi}},
-                   {"scale_mv_per_dps", s}};
+                   {"scale_mv_per_dps", s},
+                   {"cv_block_c", mo.cv_block_c}};
     if (nested_max) {
       j["nested_loo_max_abs_dps"] = *nested_max;
       j["nested_loo_rms_dps"] = *nested_rms;
@@ -531,7 +554,7 @@ void run_compare(const FitOptions& o) {
   std::size_t done = 0;
   std::vector<fit::Candidate> auto_candidates;
   for (fit::Method m : methods) {
-    fit::MethodOptions mo = method_options(o, m);
+    fit::MethodOptions mo = method_options(o, m, p);
     if (m != fit::Method::piecewise) mo.breakpoints_c.clear();
     if (m != fit::Method::piecewise && m != fit::Method::polynomial) mo.orders.clear();
     if (m == fit::Method::polynomial && mo.orders.size() > 1) mo.orders.clear();
@@ -652,6 +675,10 @@ void add_fit_command(CLI::App& app) {
                   "smooth (and auto's smooth candidate): choose the smoothing by loo (exact\n"
                   "leave-one-out) or gcv (generalised cross-validation)")
       ->capture_default_str();
+  cmd->add_option("--cv-block", opts->cv_block_c,
+                  "Held out with each point when choosing: every point within this many C of it\n"
+                  "(h-block cross-validation; 0: leave one out). Default: 2 bin widths for a time series,\n"
+                  "whose neighbouring bins share the gyro's correlated noise; 0 for a table");
   cmd->add_option("--penalty", opts->penalty,
                   "smooth: penalise jumps (of the third derivative: shrinks towards a cubic, keeps\n"
                   "the curvature at the range ends) or curvature (classical natural smoothing spline)")
@@ -693,6 +720,7 @@ void add_fit_command(CLI::App& app) {
     if (!(opts->bin_width_c > 0.0)) throw InputError("--bin-width: must be positive");
     if (!(opts->scale_mv_per_dps > 0.0)) throw InputError("--scale: must be positive");
     if (opts->dof < 0.0) throw InputError("--dof: must be positive");
+    if (opts->cv_block_c && !(*opts->cv_block_c >= 0.0)) throw InputError("--cv-block: must be 0 or more");
     if (opts->restarts < 1) throw InputError("--restarts: must be at least 1");
     require_positive(opts->hidden, "--hidden");
     if (opts->compare) {

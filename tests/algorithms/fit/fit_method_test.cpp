@@ -5,6 +5,7 @@
 
 #include "gyrotc/algorithms/fit/cross_validation.hpp"
 #include "gyrotc/algorithms/fit/fit_method.hpp"
+#include "gyrotc/algorithms/fit/polynomial_fit.hpp"
 #include "gyrotc/algorithms/model/random.hpp"
 #include "gyrotc/algorithms/stats/summary.hpp"
 #include "gyrotc_catch.hpp"
@@ -176,4 +177,77 @@ TEST_CASE("a given polynomial order needs order + 1 points") {
   o.method = Method::polynomial;
   o.orders = {30};
   CHECK_THROWS_WITH(fit_method(table.temp_c, table.gyro_mv, o), Catch::Contains("needs at least 31 points"));
+}
+
+namespace {
+
+// A smooth bowl at 1 C spacing with noise correlated from point to point
+// (first-order autoregressive, phi 0.6, as bins crossed one after another
+// share a bias that wanders), from a generator of the test's own.
+void bowl_with_correlated_noise(std::uint64_t seed, std::vector<double>& t, std::vector<double>& v) {
+  gyrotc::model::Random rng(seed);
+  t.clear();
+  v.clear();
+  double wander = 0.0;
+  for (int i = 0; i <= 60; ++i) {
+    const double x = 7.0 + i;
+    wander = 0.6 * wander + 0.8 * 0.5 * rng.normal();  // stationary sd 0.5 mV
+    t.push_back(x);
+    v.push_back(60.0 + 0.012 * (x - 30.0) * (x - 30.0) + wander);
+  }
+}
+
+double bowl_error_rms(const BiasModel& m) {
+  double sum = 0.0;
+  for (int i = 0; i <= 60; ++i) {
+    const double x = 7.0 + i;
+    const double e = m.bias_mv(x) - (60.0 + 0.012 * (x - 30.0) * (x - 30.0));
+    sum += e * e;
+  }
+  return std::sqrt(sum / 61.0);
+}
+
+}  // namespace
+
+TEST_CASE("a held-out block's residuals by the deletion formula equal refitting without the block") {
+  std::vector<double> t;
+  std::vector<double> v;
+  noisy_cubic(30, 7, t, v);
+  const Fitter cubic = [](std::span<const double> ft, std::span<const double> fv, double lo, double hi) {
+    return BiasModel::polynomial(fit_polynomial(ft, fv, 3, lo, hi).poly);
+  };
+  const double block_c = 9.0;  // the point and two neighbours each side (4.1 C apart)
+  const std::vector<double> formula = polynomial_loo_residuals(t, v, 3, block_c);
+  const std::vector<double> refitted = block_residuals(t, v, cubic, block_c, 5);
+  REQUIRE(formula.size() == refitted.size());
+  for (std::size_t i = 0; i < t.size(); ++i) CHECK(formula[i] == Approx(refitted[i]).margin(1e-9));
+  const std::vector<double> loo = polynomial_loo_residuals(t, v, 3);
+  CHECK(std::fabs(formula[10] - loo[10]) > 1e-3);
+}
+
+TEST_CASE("under noise correlated from point to point a held-out block keeps auto from following the noise") {
+  double loo_error = 0.0;
+  double block_error = 0.0;
+  double loo_dof = 0.0;
+  double block_dof = 0.0;
+  std::vector<double> t;
+  std::vector<double> v;
+  constexpr int kRecords = 20;
+  for (int k = 0; k < kRecords; ++k) {
+    bowl_with_correlated_noise(900 + k, t, v);
+    MethodOptions o;
+    const MethodFit loo = fit_method(t, v, o);
+    o.cv_block_c = 2.0;
+    o.smoothing.block_c = 2.0;
+    const MethodFit block = fit_method(t, v, o);
+    loo_error += bowl_error_rms(loo.model) / kRecords;
+    block_error += bowl_error_rms(block.model) / kRecords;
+    loo_dof += loo.dof / kRecords;
+    block_dof += block.dof / kRecords;
+  }
+  INFO("mean rms error against the bowl: leave-one-out " << loo_error << " mV (" << loo_dof
+                                                          << " parameters), block " << block_error << " mV ("
+                                                          << block_dof << ")");
+  CHECK(block_dof < 0.5 * loo_dof);
+  CHECK(block_error < 0.8 * loo_error);
 }

@@ -177,6 +177,24 @@ TEST_CASE("fit fits the same slow sweep the TEC did not hold") {
   fs::remove(p);
 }
 
+TEST_CASE("a recording's bins are held out two bin widths each side by default, a table's one by one") {
+  const fs::path p = write_temp("blocks.csv", board_record(36000, slow_sweep, false));
+  const auto series = nlohmann::json::parse(run_fit({"--data", p.string(), "--no-nested", "--json"}));
+  CHECK(series["cv_block_c"].get<double>() == 2.0);
+  CHECK_THAT(series["choice"].get<std::string>(), Catch::Contains("within 2 C of it"));
+  const auto wide = nlohmann::json::parse(run_fit({"--data", p.string(), "--bin-width", "2", "--no-nested", "--json"}));
+  CHECK(wide["cv_block_c"].get<double>() == 4.0);
+  const auto plain = nlohmann::json::parse(run_fit({"--data", p.string(), "--cv-block", "0", "--no-nested", "--json"}));
+  CHECK(plain["cv_block_c"].get<double>() == 0.0);
+  CHECK_THAT(plain["choice"].get<std::string>(), Catch::Contains("by leave-one-out"));
+  const auto table = nlohmann::json::parse(run_fit({"--data", kTable2, "--no-nested", "--json"}));
+  CHECK(table["cv_block_c"].get<double>() == 0.0);
+  CHECK_THAT(error_of({"--data", kTable2, "--cv-block", "-1"}), Catch::Contains("--cv-block"));
+  CHECK_THAT(error_of({"--data", kTable2, "--cv-block", "31"}),
+             Catch::Contains("--cv-block 31: wider than a quarter of the data's 120.0 C range (at most 30.0 C)"));
+  fs::remove(p);
+}
+
 TEST_CASE("fit refuses a sweep too fast for the die to follow, and --accept unsettled fits it and says so in [source]") {
   const fs::path p = write_temp("fast.csv", board_record(3600, fast_sweep, false));
   CHECK_THAT(error_of({"--data", p.string()}),

@@ -1,5 +1,6 @@
 #pragma once
 
+#include <Eigen/Dense>
 #include <functional>
 #include <span>
 #include <vector>
@@ -18,6 +19,27 @@ using Fitter = std::function<BiasModel(std::span<const double> temp_c, std::span
 // r[i] = value[i] - model_without_i(temp_c[i]).
 std::vector<double> loo_residuals(std::span<const double> temp_c, std::span<const double> value,
                                   const Fitter& fitter);
+
+// The points left out with each point i when its error is predicted: every
+// point within block_c of temp_c[i] (i itself when block_c is 0). Bins a
+// sweep crosses in a row share the gyro's correlated noise; leaving them out
+// together keeps a fold from borrowing its held-out point's noise from them
+// (h-block cross-validation, Burman, Chow & Nolan 1994).
+std::vector<std::vector<std::size_t>> held_out_blocks(std::span<const double> temp_c, double block_c);
+
+// Held-out residuals by refitting without each point's block in turn:
+// r[i] = value[i] - model_without_block_i(temp_c[i]). A block that leaves
+// fewer than min_kept points predicts the point as plain leave-one-out does.
+std::vector<double> block_residuals(std::span<const double> temp_c, std::span<const double> value,
+                                    const Fitter& fitter, double block_c, std::size_t min_kept);
+
+// The same for a linear smoother with hat matrix `hat` (fitted = hat * y, its
+// penalty fixed): refitting without a block B changes the fit at B by the
+// deletion formula, r_B = (I - hat_BB)^-1 (y - hat y)_B, exact for least
+// squares and penalised least squares alike. Each point's residual is its
+// entry of its own block's r_B.
+std::vector<double> linear_smoother_block_residuals(const Eigen::MatrixXd& hat, const Eigen::VectorXd& y,
+                                                    const std::vector<std::vector<std::size_t>>& blocks);
 
 // Residuals value[i] - model(temp_c[i]).
 std::vector<double> residuals(const BiasModel& model, std::span<const double> temp_c,

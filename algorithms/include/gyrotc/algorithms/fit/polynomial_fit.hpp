@@ -28,8 +28,10 @@ PolynomialFit fit_polynomial(std::span<const double> temp_c, std::span<const dou
 
 // Leave-one-out residuals of that fit (value[i] minus the prediction of the
 // polynomial fitted without point i), from one fit via the hat matrix:
-// r_loo[i] = r[i] / (1 - h_ii). Needs at least order + 2 points.
+// r_loo[i] = r[i] / (1 - h_ii). Needs at least order + 2 points. With
+// block_c > 0, each point is predicted without every point within block_c of
+// it (held_out_blocks, cross_validation.hpp).
 std::vector<double> polynomial_loo_residuals(std::span<const double> temp_c,
-                                             std::span<const double> value, int order);
+                                             std::span<const double> value, int order, double block_c = 0.0);
 
 }  // namespace gyrotc::fit

@@ -57,6 +57,9 @@ struct SmoothingOptions {
   double dof = 0.0;
   // The penalty weight itself (> 0), instead of dof or the criterion; 0 = not given.
   double lambda = 0.0;
+  // loo: each point predicted without every point within this many C of it
+  // (held_out_blocks, cross_validation.hpp); 0 = leave one out.
+  double block_c = 0.0;
 };
 
 struct SmoothingSplineFit {
@@ -66,7 +69,7 @@ struct SmoothingSplineFit {
                            // (4: a cubic; 2: a line) up to the number of points (interpolation)
   double criterion = 0.0;  // the criterion's value at lambda (mV^2)
   // Exact leave-one-out residuals at this lambda, (y_i - g_i) / (1 - A_ii), in
-  // the order of the input points.
+  // the order of the input points (with block_c, each point's held-out block's).
   std::vector<double> loo_residuals;
 };
 
