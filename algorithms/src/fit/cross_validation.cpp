@@ -76,32 +76,35 @@ std::vector<double> block_residuals(std::span<const double> temp_c, std::span<co
   return out;
 }
 
-std::vector<double> linear_smoother_block_residuals(const Eigen::MatrixXd& hat, const Eigen::VectorXd& y,
-                                                    const std::vector<std::vector<std::size_t>>& blocks) {
-  const Eigen::Index n = y.size();
-  const Eigen::VectorXd e = y - hat * y;
-  std::vector<double> out(static_cast<std::size_t>(n));
-  for (Eigen::Index i = 0; i < n; ++i) {
-    const auto& b = blocks[static_cast<std::size_t>(i)];  // b[0] is i itself
+std::vector<double> linear_smoother_block_residuals(const Eigen::VectorXd& residual,
+                                                    const std::vector<std::vector<std::size_t>>& blocks,
+                                                    const std::function<double(std::size_t, std::size_t)>& hat) {
+  std::vector<double> out(blocks.size());
+  Eigen::MatrixXd a;
+  Eigen::VectorXd eb;
+  for (std::size_t i = 0; i < blocks.size(); ++i) {
+    const auto& b = blocks[i];
+    const double loo = residual(static_cast<Eigen::Index>(i)) / std::max(1.0 - hat(i, i), 1e-12);
     const auto m = static_cast<Eigen::Index>(b.size());
     if (m == 1) {
-      out[static_cast<std::size_t>(i)] = e(i) / std::max(1.0 - hat(i, i), 1e-12);
+      out[i] = loo;
       continue;
     }
-    Eigen::MatrixXd a(m, m);
-    Eigen::VectorXd eb(m);
+    a.resize(m, m);
+    eb.resize(m);
     for (Eigen::Index r = 0; r < m; ++r) {
-      const auto br = static_cast<Eigen::Index>(b[static_cast<std::size_t>(r)]);
-      eb(r) = e(br);
-      for (Eigen::Index c = 0; c < m; ++c) {
-        a(r, c) = (r == c ? 1.0 : 0.0) - hat(br, static_cast<Eigen::Index>(b[static_cast<std::size_t>(c)]));
+      const std::size_t br = b[static_cast<std::size_t>(r)];
+      eb(r) = residual(static_cast<Eigen::Index>(br));
+      for (Eigen::Index c = r; c < m; ++c) {
+        const double h = hat(br, b[static_cast<std::size_t>(c)]);
+        a(r, c) = (r == c ? 1.0 : 0.0) - h;
+        a(c, r) = a(r, c);
       }
     }
     const Eigen::FullPivLU<Eigen::MatrixXd> lu(a);
-    // A block the fit cannot do without (I - hat_BB singular: the rest does
+    // A block the fit cannot do without (I - H_BB singular: the rest does
     // not determine the model) predicts its point as leave-one-out does.
-    out[static_cast<std::size_t>(i)] =
-        lu.isInvertible() ? lu.solve(eb)(0) : e(i) / std::max(1.0 - hat(i, i), 1e-12);
+    out[i] = lu.isInvertible() ? lu.solve(eb)(0) : loo;
   }
   return out;
 }

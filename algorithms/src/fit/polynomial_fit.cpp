@@ -88,10 +88,14 @@ std::vector<double> polynomial_loo_residuals(std::span<const double> temp_c,
   // Thin Q of V: fitted values Q Q'y, leverage h_ii = |row i of Q|^2.
   const Eigen::MatrixXd q = qr.householderQ() * Eigen::MatrixXd::Identity(v.rows(), v.cols());
   const Eigen::Map<const Eigen::VectorXd> y(value.data(), static_cast<Eigen::Index>(value.size()));
-  if (block_c > 0.0) {
-    return linear_smoother_block_residuals(q * q.transpose(), y, held_out_blocks(temp_c, block_c));
-  }
   const Eigen::VectorXd fitted = q * (q.transpose() * y);
+  if (block_c > 0.0) {
+    return linear_smoother_block_residuals(y - fitted, held_out_blocks(temp_c, block_c),
+                                           [&q](std::size_t a, std::size_t b) {
+                                             return q.row(static_cast<Eigen::Index>(a))
+                                                 .dot(q.row(static_cast<Eigen::Index>(b)));
+                                           });
+  }
   std::vector<double> loo(temp_c.size());
   for (std::size_t i = 0; i < temp_c.size(); ++i) {
     const auto row = static_cast<Eigen::Index>(i);

@@ -206,6 +206,7 @@ class DemmlerReinsch {
     y_ = Eigen::Map<const Eigen::VectorXd>(y.data(), static_cast<Eigen::Index>(y.size()));
     z_ = u_.transpose() * y_;
     n_ = static_cast<double>(y.size());
+    if (!blocks_.empty()) index_block_pairs();
   }
 
   double dof(double lambda) const { return (1.0 / (1.0 + lambda * d_.array())).sum(); }
@@ -227,8 +228,14 @@ class DemmlerReinsch {
   Eigen::VectorXd loo_residuals(double lambda) const {
     const Eigen::ArrayXd s = 1.0 / (1.0 + lambda * d_.array());
     if (!blocks_.empty()) {
-      const Eigen::MatrixXd hat = u_ * s.matrix().asDiagonal() * u_.transpose();
-      const std::vector<double> r = linear_smoother_block_residuals(hat, y_, blocks_);
+      // Only the hat entries the blocks use: each a row of pair_products_
+      // times s (the whole hat matrix would cost n^3 per lambda).
+      const Eigen::VectorXd entries = pair_products_ * s.matrix();
+      const Eigen::VectorXd e = y_ - u_ * (s * z_.array()).matrix();
+      const auto n = static_cast<std::size_t>(y_.size());
+      const std::vector<double> r = linear_smoother_block_residuals(e, blocks_, [&](std::size_t a, std::size_t b) {
+        return entries(pair_index_[std::min(a, b) * n + std::max(a, b)]);
+      });
       return Eigen::Map<const Eigen::VectorXd>(r.data(), static_cast<Eigen::Index>(r.size()));
     }
     const Eigen::VectorXd r = y_ - u_ * (s * z_.array()).matrix();
@@ -253,9 +260,35 @@ class DemmlerReinsch {
   Eigen::MatrixXd u_;
   Eigen::MatrixXd u2_;
   Eigen::VectorXd y_;
+  // Row k of pair_products_ is U_a. * U_b. for the k-th pair (a <= b) of
+  // points sharing a block, so that H_ab = that row times s.
+  void index_block_pairs() {
+    const auto n = static_cast<std::size_t>(y_.size());
+    pair_index_.assign(n * n, -1);
+    std::vector<std::pair<std::size_t, std::size_t>> pairs;
+    for (const auto& b : blocks_) {
+      for (std::size_t a : b) {
+        for (std::size_t c : b) {
+          const std::size_t lo = std::min(a, c);
+          const std::size_t hi = std::max(a, c);
+          if (pair_index_[lo * n + hi] >= 0) continue;
+          pair_index_[lo * n + hi] = static_cast<Eigen::Index>(pairs.size());
+          pairs.emplace_back(lo, hi);
+        }
+      }
+    }
+    pair_products_.resize(static_cast<Eigen::Index>(pairs.size()), u_.cols());
+    for (std::size_t k = 0; k < pairs.size(); ++k) {
+      pair_products_.row(static_cast<Eigen::Index>(k)) =
+          u_.row(static_cast<Eigen::Index>(pairs[k].first)).cwiseProduct(u_.row(static_cast<Eigen::Index>(pairs[k].second)));
+    }
+  }
+
   Eigen::VectorXd z_;
   double n_ = 0.0;
   std::vector<std::vector<std::size_t>> blocks_;  // empty: leave one out
+  std::vector<Eigen::Index> pair_index_;          // n x n, -1 where no block holds both
+  Eigen::MatrixXd pair_products_;
 };
 
 // log10 lambda minimising the criterion: a grid of 20 points per decade, the

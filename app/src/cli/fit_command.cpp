@@ -558,7 +558,22 @@ void run_compare(const FitOptions& o) {
     if (m != fit::Method::piecewise) mo.breakpoints_c.clear();
     if (m != fit::Method::piecewise && m != fit::Method::polynomial) mo.orders.clear();
     if (m == fit::Method::polynomial && mo.orders.size() > 1) mo.orders.clear();
-    const fit::MethodFit f = run_fit(p, mo, o.data);
+    // A method the data cannot take (the seed's breakpoints outside a
+    // sweep's range, too few points for a network) is listed with the
+    // reason; the others are still compared.
+    std::optional<fit::MethodFit> fitted;
+    try {
+      fitted = run_fit(p, mo, o.data);
+    } catch (const InputError& e) {
+      const std::string why = e.what();
+      const std::string prefix = o.data + ": ";
+      rows.push_back({std::string(fit::method_name(m)),
+                      "not fitted: " + (why.rfind(prefix, 0) == 0 ? why.substr(prefix.size()) : why), NAN,
+                      fit::FitErrors{NAN, NAN, NAN, NAN}, false, NAN, NAN, NAN});
+      progress.update(static_cast<double>(++done) / std::size(methods));
+      continue;
+    }
+    const fit::MethodFit& f = *fitted;
     Row row{std::string(fit::method_name(m)), f.structure, f.dof, f.errors, true, NAN, NAN, ns_per_sample(f.model, s)};
     if (o.nested) {
       if (fit::method_chooses(mo)) {
@@ -578,16 +593,17 @@ void run_compare(const FitOptions& o) {
   if (o.json) {
     ordered_json list = ordered_json::array();
     for (const Row& r : rows) {
-      ordered_json j{{"method", r.name}, {"structure", r.structure}, {"dof", r.dof}};
+      auto number = [](double v) { return std::isnan(v) ? ordered_json(nullptr) : ordered_json(v); };
+      ordered_json j{{"method", r.name}, {"structure", r.structure}, {"dof", number(r.dof)}};
       if (o.nested) {
         j["nested_loo_max_abs_dps"] = std::isnan(r.nested_max) ? ordered_json(nullptr) : ordered_json(r.nested_max / s);
         j["nested_loo_rms_dps"] = std::isnan(r.nested_rms) ? ordered_json(nullptr) : ordered_json(r.nested_rms / s);
       }
       j["loo_max_abs_dps"] = r.has_loo ? ordered_json(r.errors.loo_max_abs / s) : ordered_json(nullptr);
       j["loo_rms_dps"] = r.has_loo ? ordered_json(r.errors.loo_rms / s) : ordered_json(nullptr);
-      j["in_sample_max_abs_dps"] = r.errors.in_sample_max_abs / s;
-      j["in_sample_rms_dps"] = r.errors.in_sample_rms / s;
-      j["ns_per_sample"] = r.ns;
+      j["in_sample_max_abs_dps"] = number(r.errors.in_sample_max_abs / s);
+      j["in_sample_rms_dps"] = number(r.errors.in_sample_rms / s);
+      j["ns_per_sample"] = number(r.ns);
       list.push_back(j);
     }
     ordered_json out{{"data", o.data},     {"input", p.kind},       {"points", p.temp_c.size()},
@@ -608,6 +624,10 @@ void run_compare(const FitOptions& o) {
     return std::string(buf);
   };
   for (const Row& r : rows) {
+    if (std::isnan(r.dof)) {
+      std::printf("%-14s %6s  %s\n", r.name.c_str(), "-", r.structure.c_str());
+      continue;
+    }
     std::printf("%-14s %6.1f", r.name.c_str(), r.dof);
     if (o.nested) {
       std::printf(" %10s %10s", cell(!std::isnan(r.nested_max), r.nested_max / s).c_str(),

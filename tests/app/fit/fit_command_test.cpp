@@ -195,6 +195,27 @@ TEST_CASE("a recording's bins are held out two bin widths each side by default, 
   fs::remove(p);
 }
 
+TEST_CASE("fit --compare lists a method the data cannot take with its reason, and compares the others") {
+  // 0 .. 60 C: the seed's breakpoint at -20 C lies outside the record.
+  const fs::path p = write_temp("compare_sweep.csv",
+                                board_record(36000, [](double s) { return 60.0 * s / 36000.0; }, false));
+  const auto j = nlohmann::json::parse(run_fit({"--data", p.string(), "--compare", "--no-nested", "--json"}));
+  bool paper_listed = false;
+  int compared = 0;
+  for (const auto& m : j["methods"]) {
+    if (m["method"] == "paper") {
+      paper_listed = true;
+      CHECK_THAT(m["structure"].get<std::string>(), Catch::Contains("not fitted: paper: piecewise: breakpoint -20"));
+      CHECK(m["dof"].is_null());
+    } else if (!m["loo_rms_dps"].is_null()) {
+      ++compared;
+    }
+  }
+  CHECK(paper_listed);
+  CHECK(compared == 6);  // poly, piecewise, spline, smooth, bpnn, auto
+  fs::remove(p);
+}
+
 TEST_CASE("fit refuses a sweep too fast for the die to follow, and --accept unsettled fits it and says so in [source]") {
   const fs::path p = write_temp("fast.csv", board_record(3600, fast_sweep, false));
   CHECK_THAT(error_of({"--data", p.string()}),

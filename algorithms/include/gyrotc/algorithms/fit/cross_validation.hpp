@@ -33,13 +33,15 @@ std::vector<std::vector<std::size_t>> held_out_blocks(std::span<const double> te
 std::vector<double> block_residuals(std::span<const double> temp_c, std::span<const double> value,
                                     const Fitter& fitter, double block_c, std::size_t min_kept);
 
-// The same for a linear smoother with hat matrix `hat` (fitted = hat * y, its
-// penalty fixed): refitting without a block B changes the fit at B by the
-// deletion formula, r_B = (I - hat_BB)^-1 (y - hat y)_B, exact for least
-// squares and penalised least squares alike. Each point's residual is its
-// entry of its own block's r_B.
-std::vector<double> linear_smoother_block_residuals(const Eigen::MatrixXd& hat, const Eigen::VectorXd& y,
-                                                    const std::vector<std::vector<std::size_t>>& blocks);
+// The same for a linear smoother (fitted = H y, its penalty fixed), from its
+// in-sample residuals e = y - H y and the entries of H that the blocks need
+// (hat(a, b) = H_ab): refitting without a block B changes the fit at B by the
+// deletion formula, r_B = (I - H_BB)^-1 e_B, exact for least squares and
+// penalised least squares alike. Each point's residual is its entry of its
+// own block's r_B (blocks[i][0] is i).
+std::vector<double> linear_smoother_block_residuals(const Eigen::VectorXd& residual,
+                                                    const std::vector<std::vector<std::size_t>>& blocks,
+                                                    const std::function<double(std::size_t, std::size_t)>& hat);
 
 // Residuals value[i] - model(temp_c[i]).
 std::vector<double> residuals(const BiasModel& model, std::span<const double> temp_c,
