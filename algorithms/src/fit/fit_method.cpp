@@ -95,7 +95,7 @@ std::size_t choose(std::vector<Candidate>& candidates) {
   return chosen;
 }
 
-const char* kOneSeRule = "the fewest effective parameters within one standard error of the best LOO mean square";
+const char* kOneSeRule = "the fewest effective parameters within one standard error of the best held-out mean square";
 
 // How the candidates' held-out residuals were formed.
 std::string held_out_name(double block_c) {

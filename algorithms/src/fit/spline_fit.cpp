@@ -256,10 +256,6 @@ class DemmlerReinsch {
   }
 
  private:
-  Eigen::VectorXd d_;
-  Eigen::MatrixXd u_;
-  Eigen::MatrixXd u2_;
-  Eigen::VectorXd y_;
   // Row k of pair_products_ is U_a. * U_b. for the k-th pair (a <= b) of
   // points sharing a block, so that H_ab = that row times s.
   void index_block_pairs() {
@@ -284,6 +280,10 @@ class DemmlerReinsch {
     }
   }
 
+  Eigen::VectorXd d_;
+  Eigen::MatrixXd u_;
+  Eigen::MatrixXd u2_;
+  Eigen::VectorXd y_;
   Eigen::VectorXd z_;
   double n_ = 0.0;
   std::vector<std::vector<std::size_t>> blocks_;  // empty: leave one out

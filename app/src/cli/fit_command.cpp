@@ -590,14 +590,18 @@ void run_compare(const FitOptions& o) {
     progress.update(static_cast<double>(++done) / std::size(methods));
   }
   progress.finish();
+  if (std::all_of(rows.begin() + 1, rows.end(), [](const Row& r) { return std::isnan(r.dof); })) {
+    const std::string first = rows[1].structure.substr(std::string("not fitted: ").size());
+    throw InputError(o.data + ": no method could be fitted; the first: " + first);
+  }
   if (o.json) {
     ordered_json list = ordered_json::array();
     for (const Row& r : rows) {
       auto number = [](double v) { return std::isnan(v) ? ordered_json(nullptr) : ordered_json(v); };
       ordered_json j{{"method", r.name}, {"structure", r.structure}, {"dof", number(r.dof)}};
       if (o.nested) {
-        j["nested_loo_max_abs_dps"] = std::isnan(r.nested_max) ? ordered_json(nullptr) : ordered_json(r.nested_max / s);
-        j["nested_loo_rms_dps"] = std::isnan(r.nested_rms) ? ordered_json(nullptr) : ordered_json(r.nested_rms / s);
+        j["nested_loo_max_abs_dps"] = number(r.nested_max / s);
+        j["nested_loo_rms_dps"] = number(r.nested_rms / s);
       }
       j["loo_max_abs_dps"] = r.has_loo ? ordered_json(r.errors.loo_max_abs / s) : ordered_json(nullptr);
       j["loo_rms_dps"] = r.has_loo ? ordered_json(r.errors.loo_rms / s) : ordered_json(nullptr);
