@@ -145,9 +145,13 @@ TuneResult tune_from_record(const TuneInput& input) {
                              r.fit.ambient_c));
   }
   if (r.fit.rms_c > 2.0 * r.fit.quantisation_rms_c) {
+    // What the suite found outside the model's class (docs/TUNING.md, limits).
     r.warnings.push_back(fmt("the model misses part of the record: residual rms %.3f C, %.1fx the DS18B20's "
                              "quantisation",
-                             r.fit.rms_c, r.fit.rms_c / r.fit.quantisation_rms_c));
+                             r.fit.rms_c, r.fit.rms_c / r.fit.quantisation_rms_c) +
+                         "; known causes (docs/TUNING.md, limits): a stage that clips the current below "
+                         "[tec] current_limit_a (set it at or below the OPA548's ILIM), a sensor on a node of its own, "
+                         "a slow mode inside the casing");
   }
   const double max_sensor = *std::max_element(input.record.sensor_c.begin(), input.record.sensor_c.end());
   const double min_sensor = *std::min_element(input.record.sensor_c.begin(), input.record.sensor_c.end());

@@ -127,6 +127,23 @@ TEST_CASE("gyrotc tune writes a controller file that simulate can run, and repor
   CHECK(nlohmann::json::parse(sim).at("controller") == out);
 }
 
+TEST_CASE("a stage that clips below the configured current limit misfits, and the warning names it as a cause") {
+  model::PlantParams plant;
+  plant.current_limit_a = 0.6;  // the OPA548's ILIM, below the 1 A the controller is configured for
+  std::filesystem::create_directories(kDir);
+  const std::string record = kDir + "/clipped.csv";
+  app::write_board_record_csv(app::simulate_tune_experiment(plant, 16.0, 20.0, {}, 1.0).rows, record);
+  const nlohmann::json j = nlohmann::json::parse(
+      run_command(app::add_tune_command, "tune", {"--data", record, "--out", kDir + "/clipped.toml", "--json"}));
+  bool named = false;
+  for (const auto& w : j.at("warnings")) {
+    named = named || w.get<std::string>().find("a stage that clips the current below [tec] current_limit_a") !=
+                         std::string::npos;
+  }
+  INFO("fit rms " << j.at("fit").at("rms_c").get<double>() << " C");
+  CHECK(named);
+}
+
 TEST_CASE("the controller tune designs holds the plant that made the record better than the seed's controller") {
   // Judged on the true plant, in closed loop, not by the design's own margins:
   // from 16 C to 55 C and held; the seed's controller on the same plant is the
