@@ -536,6 +536,7 @@ void run_compare(const FitOptions& o) {
     double nested_max = NAN;
     double nested_rms = NAN;
     double ns;
+    std::string not_fitted;  // why the data cannot take the method; empty when it was fitted
   };
   std::vector<Row> rows;
   {
@@ -545,7 +546,7 @@ void run_compare(const FitOptions& o) {
     const std::vector<double> r = fit::residuals(ref, p.temp_c, p.gyro_mv);
     rows.push_back({"paper_printed", "seed's printed coefficients, erratum applied",
                     static_cast<double>(ref.parameter_count()), fit::fit_errors(r, r), false, NAN, NAN,
-                    ns_per_sample(ref, s)});
+                    ns_per_sample(ref, s), ""});
   }
   const fit::Method methods[] = {fit::Method::paper,     fit::Method::polynomial, fit::Method::piecewise,
                                  fit::Method::spline,    fit::Method::smoothing,  fit::Method::bp_network,
@@ -567,14 +568,13 @@ void run_compare(const FitOptions& o) {
     } catch (const InputError& e) {
       const std::string why = e.what();
       const std::string prefix = o.data + ": ";
-      rows.push_back({std::string(fit::method_name(m)),
-                      "not fitted: " + (why.rfind(prefix, 0) == 0 ? why.substr(prefix.size()) : why), NAN,
-                      fit::FitErrors{NAN, NAN, NAN, NAN}, false, NAN, NAN, NAN});
+      rows.push_back({std::string(fit::method_name(m)), "", NAN, fit::FitErrors{NAN, NAN, NAN, NAN}, false, NAN, NAN,
+                      NAN, why.rfind(prefix, 0) == 0 ? why.substr(prefix.size()) : why});
       progress.update(static_cast<double>(++done) / std::size(methods));
       continue;
     }
     const fit::MethodFit& f = *fitted;
-    Row row{std::string(fit::method_name(m)), f.structure, f.dof, f.errors, true, NAN, NAN, ns_per_sample(f.model, s)};
+    Row row{std::string(fit::method_name(m)), f.structure, f.dof, f.errors, true, NAN, NAN, ns_per_sample(f.model, s), ""};
     if (o.nested) {
       if (fit::method_chooses(mo)) {
         const std::vector<double> nested = run_nested(p, mo, o.data);
@@ -590,15 +590,16 @@ void run_compare(const FitOptions& o) {
     progress.update(static_cast<double>(++done) / std::size(methods));
   }
   progress.finish();
-  if (std::all_of(rows.begin() + 1, rows.end(), [](const Row& r) { return std::isnan(r.dof); })) {
-    const std::string first = rows[1].structure.substr(std::string("not fitted: ").size());
-    throw InputError(o.data + ": no method could be fitted; the first: " + first);
+  // rows[0] is the seed's printed model, which is evaluated, not fitted.
+  if (std::all_of(rows.begin() + 1, rows.end(), [](const Row& r) { return !r.not_fitted.empty(); })) {
+    throw InputError(o.data + ": no method could be fitted; the first: " + rows[1].not_fitted);
   }
+  const auto structure = [](const Row& r) { return r.not_fitted.empty() ? r.structure : "not fitted: " + r.not_fitted; };
   if (o.json) {
     ordered_json list = ordered_json::array();
     for (const Row& r : rows) {
       auto number = [](double v) { return std::isnan(v) ? ordered_json(nullptr) : ordered_json(v); };
-      ordered_json j{{"method", r.name}, {"structure", r.structure}, {"dof", number(r.dof)}};
+      ordered_json j{{"method", r.name}, {"structure", structure(r)}, {"dof", number(r.dof)}};
       if (o.nested) {
         j["nested_loo_max_abs_dps"] = number(r.nested_max / s);
         j["nested_loo_rms_dps"] = number(r.nested_rms / s);
@@ -628,8 +629,8 @@ void run_compare(const FitOptions& o) {
     return std::string(buf);
   };
   for (const Row& r : rows) {
-    if (std::isnan(r.dof)) {
-      std::printf("%-14s %6s  %s\n", r.name.c_str(), "-", r.structure.c_str());
+    if (!r.not_fitted.empty()) {
+      std::printf("%-14s %6s  %s\n", r.name.c_str(), "-", structure(r).c_str());
       continue;
     }
     std::printf("%-14s %6.1f", r.name.c_str(), r.dof);

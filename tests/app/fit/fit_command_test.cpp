@@ -216,6 +216,13 @@ TEST_CASE("fit --compare lists a method the data cannot take with its reason, an
   fs::remove(p);
 }
 
+TEST_CASE("fit --compare fails when no method could be fitted, naming the first reason") {
+  const fs::path p = write_temp("two_points.csv", "temp_c,gyro_mv\n10,80\n20,81\n");
+  CHECK_THAT(error_of({"--data", p.string(), "--compare", "--no-nested"}),
+             Catch::Contains("two_points.csv: no method could be fitted; the first: paper: need at least 3 points"));
+  fs::remove(p);
+}
+
 TEST_CASE("fit refuses a sweep too fast for the die to follow, and --accept unsettled fits it and says so in [source]") {
   const fs::path p = write_temp("fast.csv", board_record(3600, fast_sweep, false));
   CHECK_THAT(error_of({"--data", p.string()}),
