@@ -25,6 +25,9 @@
 //   tune_suite --out DIR               plots (default docs/tuning)
 //   tune_suite --markdown FILE         the results section of FILE (between the
 //                                      "tune_suite:begin/end" markers; default docs/TUNING.md)
+//   tune_suite --only "network 4,network 7"
+//                                      only the variants named (comma-separated); prints
+//                                      the figures and writes neither plots nor markdown
 
 #include <algorithm>
 #include <chrono>
@@ -37,6 +40,7 @@
 #include <fstream>
 #include <random>
 #include <sstream>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -474,6 +478,7 @@ struct Options {
   std::string work = "/tmp/tune_suite";
   std::string out = std::string(GYROTC_DATA_DIR) + "/../docs/tuning";
   std::string markdown = std::string(GYROTC_DATA_DIR) + "/../docs/TUNING.md";
+  std::vector<std::string> only;  // empty: every variant
 };
 
 std::vector<Variant> variants(const Options& o) {
@@ -511,6 +516,15 @@ std::vector<Variant> variants(const Options& o) {
   }
   std::mt19937_64 network_rng(o.seed + 1000);
   for (int k = 0; k < (o.quick ? 2 : o.network); ++k) out.push_back(network_variant(network_rng, k + 1));
+  if (!o.only.empty()) {
+    for (const std::string& name : o.only) {
+      if (std::none_of(out.begin(), out.end(), [&](const Variant& v) { return v.name == name; })) {
+        throw std::invalid_argument("--only: no variant named '" + name + "' (with --random " +
+                                    std::to_string(o.random) + " --network " + std::to_string(o.network) + ")");
+      }
+    }
+    std::erase_if(out, [&](const Variant& v) { return std::find(o.only.begin(), o.only.end(), v.name) == o.only.end(); });
+  }
   return out;
 }
 
@@ -530,6 +544,12 @@ int run(const Options& opt) {
                  k + 1, all.size(), o.variant.name.c_str(), o.minimum_s, o.data.settle_s, o.data.error_c,
                  o.tuned.settle_s, o.tuned.error_c, o.paper.settle_s, o.paper.error_c, o.verdict.c_str(),
                  o.feasible ? "" : " (infeasible plant)");
+  }
+  if (!opt.only.empty()) {
+    std::size_t passed = 0;
+    for (const auto& o : outcomes) passed += o.pass ? 1 : 0;
+    std::printf("%zu of %zu variants pass (--only: no plots, no markdown)\n", passed, outcomes.size());
+    return passed == outcomes.size() ? 0 : 1;
   }
   // Plots: the summary and the variants the issue named.
   plot_summary(outcomes, opt.out + "/summary.svg");
@@ -646,10 +666,15 @@ int main(int argc, char** argv) {
       o.out = value("--out");
     } else if (a == "--markdown") {
       o.markdown = value("--markdown");
+    } else if (a == "--only") {
+      std::stringstream list(value("--only"));
+      for (std::string name; std::getline(list, name, ',');) {
+        if (!name.empty()) o.only.push_back(name);
+      }
     } else {
       std::fprintf(stderr,
                    "usage: tune_suite [--quick] [--random N] [--network N] [--seed S] [--work DIR] [--out DIR] "
-                   "[--markdown FILE]\n");
+                   "[--markdown FILE] [--only NAME,NAME...]\n");
       return 2;
     }
   }

@@ -270,19 +270,36 @@ ControllerDesign design_controller(const ThermalModel& m, const DesignSpec& requ
     d.rail.neg_a = -m.rail_a - shift_a;
     d.rail.a_per_c = m.rail_a_per_c();
   }
-  // Feed-forward: the holding current's slope against (setpoint - ambient)
-  // over the band, a line through zero (the Controller's form).
+  // Feed-forward: the Controller's form is a line through zero against
+  // (setpoint - ambient). Two slopes are candidates for the search below: the
+  // line through zero that best matches the holding current over the band,
+  // and the holding current's own slope there (a straight line with an
+  // offset, the offset left to the integral). Where the unit's own heat moves
+  // the holding current's line away from zero, the first answers a chamber
+  // ramp with the wrong current and the error lasts until the integral
+  // catches up; the design programme's ramps decide (tune_suite: network 8
+  // from 0.27 C to 0.12 C, docs/TUNING.md).
+  std::vector<double> ff_slopes{0.0};
   if (spec.ambient_sensor) {
-    double sxy = 0.0;
-    double sxx = 0.0;
+    double sx = 0.0, sy = 0.0, sxy = 0.0, sxx = 0.0, count = 0.0;
     for (std::size_t j = 0; j < d.holding_ambient_c.size(); ++j) {
       const double ta = d.holding_ambient_c[j];
       if (ta < spec.band_low_c || ta > spec.band_high_c || !std::isfinite(d.holding_a[j])) continue;
       const double xv = spec.setpoint_c - ta;
+      sx += xv;
+      sy += d.holding_a[j];
       sxy += xv * d.holding_a[j];
       sxx += xv * xv;
+      count += 1.0;
     }
-    d.feed_forward_a_per_c = sxx > 0.0 ? sxy / sxx : 0.0;
+    const double through_zero = sxx > 0.0 ? sxy / sxx : 0.0;
+    const double spread = sxx - sx * sx / std::max(count, 1.0);
+    ff_slopes = {through_zero};
+    if (count >= 2.0 && spread > 0.0) {
+      const double own = (sxy - sx * sy / count) / spread;
+      if (std::fabs(own - through_zero) > 0.02 * std::fabs(through_zero)) ff_slopes.push_back(own);
+    }
+    d.feed_forward_a_per_c = through_zero;
     // A change of the ambient reaches the held casing through the shell:
     // the feed-forward answers the ambient as the shell does, when the
     // record has pinned the shell down (a shell it has not is a guess, and a
@@ -315,6 +332,7 @@ ControllerDesign design_controller(const ThermalModel& m, const DesignSpec& requ
   }};
   struct Scored {
     PidGains gains;
+    double ff_a_per_c;
     LoopRun run;
   };
   std::vector<Scored> scored;
@@ -339,7 +357,7 @@ ControllerDesign design_controller(const ThermalModel& m, const DesignSpec& requ
         }
         if (!robust) continue;
         ++d.robust_candidates;
-        scored.push_back({k, simulate_loop(m, spec, k, d.feed_forward_a_per_c, d.feed_forward_lag_s, d.rail)});
+        for (double ff : ff_slopes) scored.push_back({k, ff, simulate_loop(m, spec, k, ff, d.feed_forward_lag_s, d.rail)});
       }
     }
   }
@@ -360,6 +378,7 @@ ControllerDesign design_controller(const ThermalModel& m, const DesignSpec& requ
     }
   }
   d.gains = pick->gains;
+  d.feed_forward_a_per_c = pick->ff_a_per_c;
   d.predicted = pick->run;
   // The separation band: the fastest settling that keeps the error.
   for (double xi : {0.25, 0.5, 2.0, 4.0}) {

@@ -245,7 +245,16 @@ std::vector<double> first_guess(const TuneRecord& r, const std::vector<double>& 
       ++used;
     }
     if (used > 8) {
-      const Eigen::VectorXd beta = identify::solve_linear(x.topRows(used), y.head(used));
+      Eigen::VectorXd beta = identify::solve_linear(x.topRows(used), y.head(used));
+      if (!(beta(2) > 0.0)) {
+        // The loss came out negative: over rows whose casing stays within a few
+        // degrees of one temperature the loss and the constant are nearly one
+        // column, and the constant took the loss with a wrong sign. Without
+        // the constant (no internal heat) the loss is what the record shows.
+        const Eigen::VectorXd no_constant = identify::solve_linear(x.topRows(used).leftCols(3), y.head(used));
+        beta.head(3) = no_constant;
+        beta(3) = 0.0;
+      }
       if (beta(0) > 0.0) a = beta(0);
       b = beta(1) > 0.0 ? beta(1) : 100.0 * a;  // S/R of a few mV/K per ohm
       if (beta(2) > 0.0) g = beta(2);

@@ -106,6 +106,37 @@ TEST_CASE("the feed-forward line gives the holding current over the band within 
   }
 }
 
+TEST_CASE("where the holding current's line misses zero the design can take its own slope, and then the programme errs less") {
+  // The model tune identified on tune_suite's network 8 (docs/TUNING.md): a
+  // DS18B20 on a heated board a minute behind the casing; the shell not pinned
+  // down (no feed-forward lag). Its holding current over the band is a line
+  // well away from zero at the setpoint.
+  ThermalModel m;
+  m.peltier_per_a_s = 0.000151237;
+  m.joule_k_per_a2_s = 0.0162315;
+  m.loss_per_s = 0.00025778;
+  m.shell_ratio = 3.97531;
+  m.shell_tau_s = 3176.32;
+  m.internal_k_per_s = -0.00151591;
+  m.dead_time_s = 14.1232;
+  m.sensor_lag_s = 61.816;
+  DesignSpec spec;
+  spec.room_c = 16.85;
+  spec.shell_known = false;
+  const ControllerDesign d = design_controller(m, spec);
+  double sxy = 0.0, sxx = 0.0;
+  for (double ta = spec.band_low_c; ta <= spec.band_high_c + 1e-9; ta += 5.0) {
+    sxy += (55.0 - ta) * holding_current_a(m, 55.0, ta, 1.0);
+    sxx += (55.0 - ta) * (55.0 - ta);
+  }
+  const double through_zero = sxy / sxx;
+  const LoopRun zero_line = simulate_loop(m, spec, d.gains, through_zero, d.feed_forward_lag_s, d.rail);
+  INFO("design: " << d.feed_forward_a_per_c << " A/C, " << d.predicted.max_error_in_band_c << " C; line through zero: "
+                  << through_zero << " A/C, " << zero_line.max_error_in_band_c << " C");
+  CHECK(std::fabs(d.feed_forward_a_per_c - through_zero) > 0.05 * through_zero);
+  CHECK(d.predicted.max_error_in_band_c < zero_line.max_error_in_band_c);
+}
+
 TEST_CASE("without an ambient sensor there is no feed-forward") {
   DesignSpec spec = spec_for_nominal();
   spec.ambient_sensor = false;

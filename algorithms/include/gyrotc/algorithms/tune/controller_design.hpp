@@ -24,9 +24,11 @@
 // to rated_low_c and rated_high_c at 1 C/min with 20 min holds. It keeps the
 // gains with the smallest error while the ambient is within the band, and
 // among those within 3 mC of it the fastest settling; then the separation
-// band with the fastest settling. Ambients at which the unit cannot hold the
-// setpoint at all (its current limits and rails) are left out of the
-// programme and the band: no gains help there.
+// band with the fastest settling. The feed-forward's slope is searched with
+// the gains: the line through zero that best matches the holding current over
+// the band, or the holding current's own slope there. Ambients at which the
+// unit cannot hold the setpoint at all (its current limits and rails) are left
+// out of the programme and the band: no gains help there.
 namespace gyrotc::tune {
 
 struct DesignSpec {
