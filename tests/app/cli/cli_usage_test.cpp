@@ -161,3 +161,11 @@ TEST_CASE("record with both --pid and --experiment is a usage error: the experim
   CHECK(run.status == 2);
   CHECK(run.err.find("choose one") != std::string::npos);
 }
+
+// In process, not a gyrotc child: under qemu-user a child needs the host's
+// binfmt_misc registration for aarch64, which a container may not have.
+TEST_CASE("calibrate without --config or --data is a usage error naming both", "[cli]") {
+  const CliRun run = run_gyrotc({"calibrate", "--out", "unused.toml"});
+  CHECK(run.status == 2);
+  CHECK(run.err.find("give --config FILE (run the sweep on the board) or --data RECORD") != std::string::npos);
+}

@@ -90,11 +90,3 @@ TEST_CASE("calibrate --install puts the calibration in place of the configuratio
 }
 
 #endif
-
-TEST_CASE("calibrate without --config or --data is a usage error naming both") {
-  const std::string dir = gyrotc::test::scratch_dir();
-  const std::string err = dir + "/calibrate_usage.err";
-  const pid_t pid = spawn_gyrotc({"calibrate", "--out", dir + "/unused.toml"}, err);
-  CHECK(exit_status(pid) == 2);
-  CHECK(read_text(err).find("give --config FILE (run the sweep on the board) or --data RECORD") != std::string::npos);
-}
