@@ -315,7 +315,11 @@ Prepared prepare(std::span<const double> t, std::span<const double> v, const Met
     case Method::polynomial: return prepare_polynomial(t, v, o, lo, hi);
     case Method::piecewise: return prepare_piecewise(t, v, o, lo, hi);
     case Method::spline: return prepare_spline(t, v, lo, hi);
-    case Method::smoothing: return prepare_smoothing(t, v, o.smoothing, lo, hi);
+    case Method::smoothing: {
+      SmoothingOptions so = o.smoothing;
+      so.block_c = o.cv_block_c;
+      return prepare_smoothing(t, v, so, lo, hi);
+    }
     case Method::bp_network: return prepare_bp(t, v, o, lo, hi);
     case Method::paper:
       // The seed's first segment has 5 points for order 4: its LOO folds fit

@@ -299,7 +299,6 @@ ControllerDesign design_controller(const ThermalModel& m, const DesignSpec& requ
       const double own = (sxy - sx * sy / count) / spread;
       if (std::fabs(own - through_zero) > 0.02 * std::fabs(through_zero)) ff_slopes.push_back(own);
     }
-    d.feed_forward_a_per_c = through_zero;
     // A change of the ambient reaches the held casing through the shell:
     // the feed-forward answers the ambient as the shell does, when the
     // record has pinned the shell down (a shell it has not is a guess, and a

@@ -228,7 +228,6 @@ fit::MethodOptions method_options(const FitOptions& o, fit::Method m, const Poin
   mo.continuity = parse_continuity(o.continuity);
   mo.smoothing = smoothing_options(o);
   mo.cv_block_c = cv_block_c(o, p);
-  mo.smoothing.block_c = mo.cv_block_c;
   mo.bp.seed = o.seed;
   mo.bp.hidden = o.hidden;
   mo.bp.restarts = o.restarts;

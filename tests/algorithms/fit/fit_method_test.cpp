@@ -238,7 +238,6 @@ TEST_CASE("under noise correlated from point to point a held-out block keeps aut
     MethodOptions o;
     const MethodFit loo = fit_method(t, v, o);
     o.cv_block_c = 2.0;
-    o.smoothing.block_c = 2.0;
     const MethodFit block = fit_method(t, v, o);
     loo_error += bowl_error_rms(loo.model) / kRecords;
     block_error += bowl_error_rms(block.model) / kRecords;
@@ -250,4 +249,19 @@ TEST_CASE("under noise correlated from point to point a held-out block keeps aut
                                                           << block_dof << ")");
   CHECK(block_dof < 0.5 * loo_dof);
   CHECK(block_error < 0.8 * loo_error);
+}
+
+TEST_CASE("the smoothing method takes the held-out block from the method's options, as auto does") {
+  std::vector<double> t;
+  std::vector<double> v;
+  bowl_with_correlated_noise(900, t, v);
+  MethodOptions o;
+  o.method = Method::smoothing;
+  o.cv_block_c = 2.0;
+  const MethodFit block = fit_method(t, v, o);
+  o.cv_block_c = 0.0;
+  const MethodFit loo = fit_method(t, v, o);
+  INFO(block.choice << " | " << loo.choice);
+  CHECK(block.choice.find("leave-block-out") != std::string::npos);
+  CHECK(block.dof < loo.dof);
 }

@@ -44,8 +44,9 @@ struct MethodOptions {
   std::vector<double> breakpoints_c;
   Continuity continuity = Continuity::value;  // piecewise
   int max_poly_order = 10;
-  // auto and poly: the candidates' held-out residuals leave out every point
-  // within this many C of the one predicted (0: leave one out).
+  // auto, poly and smooth: the held-out residuals that choose the model leave
+  // out every point within this many C of the one predicted (0: leave one
+  // out); it sets smoothing.block_c.
   double cv_block_c = 0.0;
   PiecewiseSearch search;
   SmoothingOptions smoothing;
