@@ -44,7 +44,18 @@ nlohmann::json up_down_json(const calibrate::UpDownDifference& d) {
   for (const calibrate::UpDownBin& b : d.bins) {
     bins.push_back({{"temp_c", b.temp_c}, {"up_mv", b.up_mv}, {"down_mv", b.down_mv}});
   }
-  return {{"max_abs_mv", d.max_abs_mv}, {"max_at_c", d.max_at_c}, {"mean_abs_mv", d.mean_abs_mv}, {"bins", bins}};
+  const calibrate::LagAndHysteresis& s = d.separation;
+  nlohmann::json separation = {{"separated", s.separated}};
+  if (s.separated) {
+    separation["die_lag_s"] = s.die_lag_s;
+    separation["die_lag_s_std"] = s.die_lag_s_std;
+    separation["split_mv"] = s.split_mv;
+    separation["split_mv_std"] = s.split_mv_std;
+  } else {
+    separation["why_not"] = s.why_not;
+  }
+  return {{"max_abs_mv", d.max_abs_mv}, {"max_at_c", d.max_at_c}, {"mean_abs_mv", d.mean_abs_mv},
+          {"separation", separation}, {"bins", bins}};
 }
 
 // The record's range against the service range, then the fit.
@@ -68,6 +79,14 @@ void fit_and_check(const std::string& record, const CalibrateOptions& o) {
               "these temperatures at the sweep's rate sees about the fitted mean\n",
               split.mean_abs_mv, split.mean_abs_mv / scale, split.bins.size(), split.max_abs_mv,
               split.max_abs_mv / scale, split.max_at_c);
+  const calibrate::LagAndHysteresis& s = split.separation;
+  if (!s.separated) {
+    std::printf("up/down: the die's lag and a hysteresis not told apart: %s\n", s.why_not.c_str());
+    return;
+  }
+  std::printf("up/down: the die lags the casing sensor by %.1f +/- %.1f s; a split of %.3f +/- %.3f mV (%.4f deg/s) "
+              "does not follow the curve's slope: a hysteresis, or a response to the rate of change itself\n",
+              s.die_lag_s, s.die_lag_s_std, s.split_mv, s.split_mv_std, s.split_mv / scale);
 }
 
 // The pid of the daemon that runs on this configuration's board, from its
