@@ -178,3 +178,20 @@ TEST_CASE("calibrate reports the split of the sweep's passes, largest where the 
   REQUIRE(flat_bins > 5);
   CHECK(split.at("max_abs_mv").get<double>() > 4.0 * flat_mv / flat_bins);
 }
+
+TEST_CASE("calibrate tells the die's lag from a hysteresis on the sweep: the plant's 40 s die, and no hysteresis") {
+  // The plant's die: 1.6 J/K on 0.04 W/K to the casing, a 40 s time
+  // constant; its gyro has no hysteresis. The S-curve's slope changes sign
+  // over the range, so one sweep separates the two.
+  const std::string printed = run_command(gyrotc::app::add_calibrate_command, "calibrate",
+                                          {"--data", selfcal_record(), "--out", kDir + "/lag.toml", "--json"});
+  const nlohmann::json s = nlohmann::json::parse(printed).at("up_down").at("separation");
+  REQUIRE(s.at("separated").get<bool>());
+  const double lag = s.at("die_lag_s").get<double>();
+  const double lag_se = s.at("die_lag_s_std").get<double>();
+  INFO("lag " << lag << " +/- " << lag_se << " s, split " << s.at("split_mv").get<double>() << " +/- "
+              << s.at("split_mv_std").get<double>() << " mV");
+  CHECK(std::fabs(lag - 40.0) < 3.0 * lag_se);
+  CHECK(lag_se < 8.0);
+  CHECK(std::fabs(s.at("split_mv").get<double>()) < 3.0 * s.at("split_mv_std").get<double>());
+}
