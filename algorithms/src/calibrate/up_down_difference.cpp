@@ -91,6 +91,10 @@ LagAndHysteresis separate(std::span<const double> sensor_c, std::span<const doub
     const double sign = rate[i] > options.min_rate_c_per_min ? 1.0 : rate[i] < -options.min_rate_c_per_min ? -1.0 : 0.0;
     if (sign != 0.0) rows.push_back({i, it->second, sign});
   }
+  if (rows.empty()) {
+    out.why_not = "no row of the passes moved one way long enough to read the die's lag";
+    return out;
+  }
   // Runs of up to kRowsPerChunk consecutive rows of one bin and pass are
   // averaged into one (the noise fit below costs columns^2 x rows per lag).
   constexpr std::size_t kRowsPerChunk = 5;
@@ -134,6 +138,10 @@ LagAndHysteresis separate(std::span<const double> sensor_c, std::span<const doub
   const Eigen::MatrixXd inverse = solver.solve(Eigen::MatrixXd::Identity(lag_column + 2, lag_column + 2));
   const tune::ResidualNoise noise = tune::fit_residual_noise(design, residual);
   const Eigen::MatrixXd covariance = tune::noise_covariance(design, inverse, noise);
+  if (!beta.allFinite() || !covariance.allFinite()) {
+    out.why_not = "the fit of the passes is singular (a bin whose temperature did not change across it?)";
+    return out;
+  }
   out.separated = true;
   out.die_lag_s = beta(lag_column);
   out.die_lag_s_std = std::sqrt(std::max(0.0, covariance(lag_column, lag_column)));

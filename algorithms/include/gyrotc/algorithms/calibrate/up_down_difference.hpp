@@ -10,10 +10,10 @@
 // rate times the lag times the curve's slope there (up - down =
 // -lag (r_up + r_down) B'(T)), a hysteresis's is the same wherever the
 // passes cross. So one sweep tells them apart where the slope changes over
-// the range (a bowl, an S-curve): a line fitted to the bins' splits against
-// -(r_up + r_down) B'(T) has the lag as its slope and the hysteresis as its
-// intercept. On a straight curve the two are one column; a second sweep at
-// another rate would separate them there.
+// the range (a bowl, an S-curve): fitted against -(r_up + r_down) B'(T) and
+// a constant, the splits give the lag as the one's coefficient and the
+// hysteresis as the other's. On a straight curve the two are one column; a
+// second sweep at another rate would separate them there.
 #include <cstddef>
 #include <limits>
 #include <span>
@@ -33,9 +33,9 @@ struct UpDownBin {
   double slope_mv_per_c = 0.0;       // the curve's slope there, from the bins' means
 };
 
-// The split taken apart (see above). Standard errors from the line's
-// residual, widened for the correlation of neighbouring bins (they are
-// crossed minutes apart and share the gyro's wander).
+// The split taken apart (see above), with standard errors under the gyro's
+// white noise and wander as fitted to the fit's own residual (neighbouring
+// bins are crossed minutes apart and share the wander).
 struct LagAndHysteresis {
   bool separated = false;
   std::string why_not;  // when not separated
