@@ -669,7 +669,8 @@ int main(int argc, char** argv) {
     } else if (a == "--only") {
       std::stringstream list(value("--only"));
       for (std::string name; std::getline(list, name, ',');) {
-        if (!name.empty()) o.only.push_back(name);
+        const auto first = name.find_first_not_of(' ');  // "network 4, network 7"
+        if (first != std::string::npos) o.only.push_back(name.substr(first, name.find_last_not_of(' ') - first + 1));
       }
     } else {
       std::fprintf(stderr,

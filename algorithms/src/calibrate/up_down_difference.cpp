@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <limits>
 #include <map>
 
 #include <Eigen/Dense>
@@ -13,11 +14,23 @@
 namespace gyrotc::calibrate {
 namespace {
 
-// The slope of the bins' means at each bin: a quadratic in temperature
-// through the bins within half_width_c (at the ends of the range, the
-// window is one-sided and the quadratic keeps the slope unbiased on a curve).
-void estimate_slopes(std::vector<UpDownBin>& bins, double half_width_c) {
-  for (UpDownBin& b : bins) {
+std::int64_t bin_index(double temp_c, const UpDownOptions& options) {
+  return static_cast<std::int64_t>(std::floor(temp_c / options.bin_width_c));
+}
+
+// +1 moving up, -1 down, 0 slower than min_rate_c_per_min (a dwell).
+int direction_of(double rate_c_per_min, const UpDownOptions& options) {
+  if (rate_c_per_min > options.min_rate_c_per_min) return 1;
+  return rate_c_per_min < -options.min_rate_c_per_min ? -1 : 0;
+}
+
+// The curve's slope at each bin, from the bins' means: a quadratic in
+// temperature through the bins within half_width_c (at the ends of the range
+// the window is one-sided, and the quadratic keeps the slope unbiased on a
+// curve). NaN where fewer than 4 bins are that close.
+std::vector<double> slopes_mv_per_c(const std::vector<UpDownBin>& bins, double half_width_c) {
+  std::vector<double> slopes;
+  for (const UpDownBin& b : bins) {
     Eigen::MatrixXd x(static_cast<Eigen::Index>(bins.size()), 3);
     Eigen::VectorXd y(static_cast<Eigen::Index>(bins.size()));
     Eigen::Index m = 0;
@@ -28,12 +41,10 @@ void estimate_slopes(std::vector<UpDownBin>& bins, double half_width_c) {
       y(m) = 0.5 * (o.up_mv + o.down_mv);
       ++m;
     }
-    if (m < 4) {
-      b.slope_mv_per_c = std::numeric_limits<double>::quiet_NaN();
-      continue;
-    }
-    b.slope_mv_per_c = x.topRows(m).colPivHouseholderQr().solve(y.head(m))(1);
+    slopes.push_back(m < 4 ? std::numeric_limits<double>::quiet_NaN()
+                           : x.topRows(m).colPivHouseholderQr().solve(y.head(m))(1));
   }
+  return slopes;
 }
 
 // The rows the separation reads: one of a bin's two passes, settled.
@@ -48,14 +59,16 @@ LagAndHysteresis separate(std::span<const double> sensor_c, std::span<const doub
                           const std::vector<UpDownBin>& bins, const UpDownOptions& options) {
   LagAndHysteresis out;
   // up - down = lag * column + hysteresis, column = -(r_up + r_down) B'(T), in mV/s.
+  const std::vector<double> slopes = slopes_mv_per_c(bins, options.slope_half_width_c);
   std::map<std::int64_t, std::size_t> column_of_bin;
   std::vector<double> column;
   std::vector<const UpDownBin*> bins_with_slope;
-  for (const UpDownBin& b : bins) {
-    if (!std::isfinite(b.slope_mv_per_c)) continue;
+  for (std::size_t k = 0; k < bins.size(); ++k) {
+    const UpDownBin& b = bins[k];
+    if (!std::isfinite(slopes[k])) continue;
     bins_with_slope.push_back(&b);
-    column_of_bin[static_cast<std::int64_t>(std::floor(b.temp_c / options.bin_width_c))] = column.size();
-    column.push_back(-(b.up_rate_c_per_min + b.down_rate_c_per_min) / 60.0 * b.slope_mv_per_c);
+    column_of_bin[bin_index(b.temp_c, options)] = column.size();
+    column.push_back(-(b.up_rate_c_per_min + b.down_rate_c_per_min) / 60.0 * slopes[k]);
   }
   const std::size_t m = column.size();
   if (m < options.min_bins_to_separate) {
@@ -86,10 +99,9 @@ LagAndHysteresis separate(std::span<const double> sensor_c, std::span<const doub
   std::vector<PassRow> rows;
   for (std::size_t i = 0; i < sensor_c.size(); ++i) {
     if (!use[i] || !std::isfinite(sensor_c[i]) || !std::isfinite(gyro_mv[i])) continue;
-    const auto it = column_of_bin.find(static_cast<std::int64_t>(std::floor(sensor_c[i] / options.bin_width_c)));
-    if (it == column_of_bin.end()) continue;
-    const double sign = rate[i] > options.min_rate_c_per_min ? 1.0 : rate[i] < -options.min_rate_c_per_min ? -1.0 : 0.0;
-    if (sign != 0.0) rows.push_back({i, it->second, sign});
+    const auto it = column_of_bin.find(bin_index(sensor_c[i], options));
+    const int direction = direction_of(rate[i], options);
+    if (it != column_of_bin.end() && direction != 0) rows.push_back({i, it->second, static_cast<double>(direction)});
   }
   if (rows.empty()) {
     out.why_not = "no row of the passes moved one way long enough to read the die's lag";
@@ -162,12 +174,13 @@ std::vector<UpDownBin> bin_passes(std::span<const double> sensor_c, std::span<co
   std::map<std::int64_t, Sums> sums;
   for (std::size_t i = 0; i < sensor_c.size(); ++i) {
     if (!std::isfinite(sensor_c[i]) || !std::isfinite(gyro_mv[i]) || (!use.empty() && !use[i])) continue;
-    Sums& b = sums[static_cast<std::int64_t>(std::floor(sensor_c[i] / options.bin_width_c))];
-    if (rate[i] > options.min_rate_c_per_min) {
+    Sums& b = sums[bin_index(sensor_c[i], options)];
+    const int direction = direction_of(rate[i], options);
+    if (direction > 0) {
       b.up_mv += gyro_mv[i];
       b.up_rate += rate[i];
       ++b.up;
-    } else if (rate[i] < -options.min_rate_c_per_min) {
+    } else if (direction < 0) {
       b.down_mv += gyro_mv[i];
       b.down_rate -= rate[i];
       ++b.down;
@@ -179,7 +192,7 @@ std::vector<UpDownBin> bin_passes(std::span<const double> sensor_c, std::span<co
     const auto up = static_cast<double>(b.up);
     const auto down = static_cast<double>(b.down);
     bins.push_back({(static_cast<double>(index) + 0.5) * options.bin_width_c, b.up_mv / up, b.down_mv / down, b.up,
-                    b.down, b.up_rate / up, b.down_rate / down, 0.0});
+                    b.down, b.up_rate / up, b.down_rate / down});
   }
   return bins;
 }
@@ -193,7 +206,7 @@ std::vector<bool> settled_rows(std::span<const double> time_s, const std::vector
   double since_s = 0.0;
   int direction = 0;
   for (std::size_t i = 0; i < rate.size(); ++i) {
-    const int d = rate[i] > options.min_rate_c_per_min ? 1 : rate[i] < -options.min_rate_c_per_min ? -1 : 0;
+    const int d = direction_of(rate[i], options);
     if (d == 0 || d != direction) {
       direction = d;
       since_s = time_s[i];
@@ -220,10 +233,8 @@ UpDownDifference up_down_difference(std::span<const double> time_s, std::span<co
     sum_abs += diff;
   }
   if (!d.bins.empty()) d.mean_abs_mv = sum_abs / static_cast<double>(d.bins.size());
-  estimate_slopes(d.bins, options.slope_half_width_c);
   const std::vector<bool> use = settled_rows(time_s, rate, options);
-  std::vector<UpDownBin> settled = bin_passes(sensor_c, gyro_mv, rate, use, options);
-  estimate_slopes(settled, options.slope_half_width_c);
+  const std::vector<UpDownBin> settled = bin_passes(sensor_c, gyro_mv, rate, use, options);
   d.separation = separate(sensor_c, gyro_mv, rate, use, settled, options);
   return d;
 }

@@ -30,7 +30,6 @@ struct UpDownBin {
   std::size_t down_rows = 0;
   double up_rate_c_per_min = 0.0;    // mean |rate| of those rows
   double down_rate_c_per_min = 0.0;
-  double slope_mv_per_c = 0.0;       // the curve's slope there, from the bins' means
 };
 
 // The split taken apart (see above), with standard errors under the gyro's
