@@ -5,9 +5,13 @@
 // unit sees in service.
 #include <signal.h>
 
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
 #include <cstdio>
 #include <filesystem>
 #include <memory>
+#include <optional>
 #include <string>
 #include <system_error>
 
@@ -32,6 +36,7 @@ struct CalibrateOptions {
   std::string out;
   std::string plot;
   std::string record;
+  std::optional<double> die_lag_s;  // default: as the sweep's up/down passes measure it
   bool install = false;
   bool allow_non_rt = false;
   bool json = false;
@@ -58,16 +63,59 @@ nlohmann::json up_down_json(const calibrate::UpDownDifference& d) {
           {"separation", separation}, {"bins", bins}};
 }
 
+// The die's lag the record is binned with: the one asked for, else the one
+// the passes' split measures, else none (the sensor's reading).
+enum class LagFrom : std::uint8_t { given, measured, none };
+
+const char* to_string(LagFrom from) noexcept {
+  switch (from) {
+    case LagFrom::given: return "given";
+    case LagFrom::measured: return "measured";
+    case LagFrom::none: return "none";
+  }
+  return "?";
+}
+
+struct DieLag {
+  double lag_s = 0.0;
+  LagFrom from = LagFrom::none;
+};
+
+DieLag die_lag_for(const CalibrateOptions& o, const calibrate::UpDownDifference& split) {
+  if (o.die_lag_s) return {*o.die_lag_s, LagFrom::given};
+  if (split.separation.separated) return {std::max(0.0, split.separation.die_lag_s), LagFrom::measured};
+  return {};
+}
+
+void print_die_lag(const DieLag& lag) {
+  if (lag.from == LagFrom::measured) {
+    std::printf("die: binned by the die's temperature, the casing sensor through the %.1f s lag the up/down passes "
+                "measure (below; --die-lag-s to set it)\n",
+                lag.lag_s);
+  } else if (lag.from == LagFrom::given && lag.lag_s > 0.0) {
+    std::printf("die: binned by the die's temperature, the casing sensor through a %.1f s lag (--die-lag-s)\n",
+                lag.lag_s);
+  } else if (lag.from == LagFrom::given) {
+    std::printf("die: binned by the casing sensor's reading (--die-lag-s 0)\n");
+  } else {
+    std::printf("die: binned by the casing sensor's reading: the up/down passes do not measure the die's lag "
+                "(below; --die-lag-s to give it)\n");
+  }
+}
+
 // The record's range against the service range, then the fit.
 void fit_and_check(const std::string& record, const CalibrateOptions& o) {
-  const RecordRange range = read_record_range(record);
+  const calibrate::UpDownDifference split = read_up_down_difference(record);
+  const DieLag lag = die_lag_for(o, split);
+  const RecordRange range = read_record_range(record, lag.lag_s);
   const std::string gap = service_range_gap(range);
   if (!gap.empty()) {
     throw InputError(record + ": cannot calibrate for service: " + gap +
                      "; run the sweep at a lower ambient, or calibrate in a chamber (gyrotc fit)");
   }
-  const calibrate::UpDownDifference split = read_up_down_difference(record);
-  fit_record_auto(record, o.out, o.plot, o.json, {{"up_down", up_down_json(split)}});
+  if (!o.json) print_die_lag(lag);
+  fit_record_auto(record, lag.lag_s, o.out, o.plot, o.json,
+                  {{"up_down", up_down_json(split)}, {"die_lag_from", to_string(lag.from)}});
   if (o.json) return;
   if (split.bins.empty()) {
     std::printf("up/down: no temperature crossed both ways (not a self-calibration sweep?)\n");
@@ -165,10 +213,12 @@ void add_calibrate_command(CLI::App& app) {
       "Calibrate the zero-bias model without a chamber: with the gyro at rest, the unit's own TEC sweeps the\n"
       "casing from 12 C below the ambient to 12 C above the setpoint (never within 5 C of [failsafe]\n"
       "over_temp_c; an end the stage cannot reach at this ambient is where it stalls) and back, at 0.6 C/min,\n"
-      "every temperature crossed once each way so the die's lag cancels (at most 4 h at 20 C); then fits the\n"
-      "record as `gyrotc fit --method auto` does (each 1 C bin held out with the bins within 2 C of it, which\n"
-      "share the gyro's bias wander) and writes the calibration file. Refused when the range reached does\n"
-      "not cover the ambient of the run up to the setpoint.\n"
+      "every temperature crossed once each way, each end held until the gyro's output settles (at most 4 h\n"
+      "at 20 C). The split between the two passes measures the die's lag behind the casing sensor; the\n"
+      "record is binned by the die's temperature so estimated and fitted as `gyrotc fit --method auto` fits\n"
+      "(each 1 C bin held out with the bins within 2 C of it, which share the gyro's bias wander), and the\n"
+      "calibration file written. Refused when the range reached does not cover the ambient of the run up\n"
+      "to the setpoint.\n"
       "On the board: --config (the service stopped: the run holds the board; every fail-safe on, safe-off on\n"
       "any signal). Without hardware: --data, the record of `gyrotc simulate --profile selfcal --out DIR`.");
   cmd->add_option("-c,--config", o->config,
@@ -179,6 +229,10 @@ void add_calibrate_command(CLI::App& app) {
                   "--profile selfcal`) instead of running one");
   cmd->add_option("--out", o->out, "the calibration file (TOML) to write")->required();
   cmd->add_option("--plot", o->plot, "the calibration report (SVG), as `gyrotc fit --plot`");
+  cmd->add_option("--die-lag-s", o->die_lag_s,
+                  "the die's lag behind the casing sensor, s, to bin the record by the die's temperature with\n"
+                  "(default: as the sweep's up/down passes measure it; where they cannot, a nearly straight curve,\n"
+                  "the sensor's reading; 0: the sensor's reading)");
   cmd->add_option("--record", o->record, "--config: where the sweep's record goes (default: OUT.record.csv)");
   cmd->add_flag("--install", o->install,
                 "put the calibration in place of --config's [calibration] file; a daemon running on that\n"
@@ -187,6 +241,9 @@ void add_calibrate_command(CLI::App& app) {
                 "--config: run without SCHED_FIFO / locked memory when not permitted (a warning)");
   cmd->add_flag("--json", o->json, "print the fit's summary as one JSON object");
   cmd->callback([o] {
+    if (o->die_lag_s && !(*o->die_lag_s >= 0.0 && std::isfinite(*o->die_lag_s))) {
+      throw InputError("--die-lag-s: must be 0 or more seconds");
+    }
     if (o->config.empty() && o->data.empty()) {
       throw CLI::ValidationError("calibrate: give --config FILE (run the sweep on the board) or --data RECORD "
                                  "(a recorded sweep)");

@@ -15,6 +15,7 @@
 #include <string>
 #include <vector>
 
+#include "gyrotc/algorithms/calibrate/die_temperature.hpp"
 #include "gyrotc/algorithms/fit/compensator.hpp"
 #include "gyrotc/algorithms/fit/cross_validation.hpp"
 #include "gyrotc/algorithms/fit/fit_method.hpp"
@@ -53,6 +54,7 @@ struct FitOptions {
   std::vector<int> hidden = {10, 10, 10};
   int restarts = 3;
   double bin_width_c = 1.0;
+  double die_lag_s = 0.0;  // a time series binned by the die's temperature (calibrate/die_temperature.hpp)
   double scale_mv_per_dps = fit::Compensator::kSeedScaleMvPerDps;
   std::vector<std::string> accept;  // record checks overridden: span, uneven, unsettled
   nlohmann::json extra_json = nlohmann::json::object();  // a caller's keys added to the --json summary
@@ -146,9 +148,13 @@ std::vector<std::string> screen_record(const CsvTable& table, const std::vector<
 Points read_series(const CsvTable& table, const FitOptions& o) {
   const double bin_width_c = o.bin_width_c;
   table.require_increasing("time_s");
-  const std::vector<double> temp = table.numbers("sensor_c");
+  const std::vector<double> time_s = table.numbers("time_s");
+  const std::vector<double> sensor_c = table.numbers("sensor_c");
   const std::vector<double> gyro = table.numbers("gyro_mv");
-  std::vector<std::string> accepted = screen_record(table, table.numbers("time_s"), temp, o);
+  // The screen judges how the casing moved; the bins take each sample's bias
+  // at the die's temperature when the die's lag is given.
+  std::vector<std::string> accepted = screen_record(table, time_s, sensor_c, o);
+  const std::vector<double> temp = calibrate::die_temperature_c(time_s, sensor_c, o.die_lag_s);
   struct Bin {
     double temp_sum = 0.0;
     double gyro_sum = 0.0;
@@ -166,8 +172,13 @@ Points read_series(const CsvTable& table, const FitOptions& o) {
     p.temp_c.push_back(b.temp_sum / static_cast<double>(b.count));
     p.gyro_mv.push_back(b.gyro_sum / static_cast<double>(b.count));
   }
-  char buf[96];
-  std::snprintf(buf, sizeof buf, "time series, %zu samples in %g C bins", temp.size(), bin_width_c);
+  char buf[160];
+  if (o.die_lag_s > 0.0) {
+    std::snprintf(buf, sizeof buf, "time series, %zu samples in %g C bins of the die (the sensor through a %.1f s lag)",
+                  temp.size(), bin_width_c, o.die_lag_s);
+  } else {
+    std::snprintf(buf, sizeof buf, "time series, %zu samples in %g C bins", temp.size(), bin_width_c);
+  }
   p.kind = buf;
   p.samples = temp.size();
   p.accepted = std::move(accepted);
@@ -176,7 +187,13 @@ Points read_series(const CsvTable& table, const FitOptions& o) {
 
 Points read_points(const FitOptions& o) {
   const CsvTable table = CsvTable::read(o.data);
-  if (table.has("temp_c")) return read_table(table);
+  if (table.has("temp_c")) {
+    if (o.die_lag_s > 0.0) {
+      throw InputError(o.data + ": --die-lag-s: a table of temperatures has no time to lag over (it applies to a "
+                                "recording with time_s, sensor_c, gyro_mv)");
+    }
+    return read_table(table);
+  }
   if (table.has("sensor_c")) return read_series(table, o);
   std::string have;
   for (const auto& c : table.columns()) have += (have.empty() ? "" : ", ") + c;
@@ -391,7 +408,11 @@ void write_fit_plot(const FitOptions& o, const Points& p, const fit::MethodFit& 
   const auto [lo, hi] = std::minmax_element(p.temp_c.begin(), p.temp_c.end());
   plot::Figure fig;
   fig.title = "gyrotc fit " + std::filesystem::path(o.data).filename().string() + " (--method " + o.method + ")";
-  fig.x.title = "temperature (C)";
+  char x_title[96] = "temperature (C)";
+  if (o.die_lag_s > 0.0) {
+    std::snprintf(x_title, sizeof x_title, "die temperature (C): the sensor through a %.1f s lag", o.die_lag_s);
+  }
+  fig.x.title = x_title;
   fig.x.tight = true;
   fig.legend_width_px = 260.0;
   fig.width_px = 1000.0;
@@ -468,7 +489,8 @@ void run_single(const FitOptions& o) {
                           f.errors.loo_rms / s,
                           nested_max,
                           nested_rms,
-                          p.accepted};
+                          p.accepted,
+                          o.die_lag_s > 0.0 ? std::optional<double>(o.die_lag_s) : std::nullopt};
     save_calibration(f.model, o.out, s, src);
   }
   if (o.json) {
@@ -481,7 +503,8 @@ void run_single(const FitOptions& o) {
                    {"points", p.temp_c.size()},
                    {"range_c", {*lo, *hi}},
                    {"scale_mv_per_dps", s},
-                   {"cv_block_c", mo.cv_block_c}};
+                   {"cv_block_c", mo.cv_block_c},
+                   {"die_lag_s", o.die_lag_s}};
     if (nested_max) {
       j["nested_loo_max_abs_dps"] = *nested_max;
       j["nested_loo_rms_dps"] = *nested_rms;
@@ -654,9 +677,10 @@ void require_positive(const T& values, const char* option) {
 
 }  // namespace
 
-void fit_record_auto(const std::string& data, const std::string& out, const std::string& plot, bool json,
-                     const nlohmann::json& extra_json) {
+void fit_record_auto(const std::string& data, double die_lag_s, const std::string& out, const std::string& plot,
+                     bool json, const nlohmann::json& extra_json) {
   FitOptions o;
+  o.die_lag_s = die_lag_s;
   o.extra_json = extra_json;
   o.data = data;
   o.method = "auto";
@@ -729,6 +753,11 @@ void add_fit_command(CLI::App& app) {
       ->capture_default_str();
   cmd->add_option("--bin-width", opts->bin_width_c, "Time-series input: temperature bin width (C)")
       ->capture_default_str();
+  cmd->add_option("--die-lag-s", opts->die_lag_s,
+                  "Time-series input: bin each sample by the die's temperature, the sensor through a\n"
+                  "first-order lag of this many seconds, instead of the sensor's reading (`gyrotc calibrate`\n"
+                  "measures the lag from its sweep; 0: the sensor)")
+      ->capture_default_str();
   cmd->add_option("--accept", opts->accept,
                   "Time-series input: fit despite these refusals, each a judgement call (the calibration\n"
                   "file's [source] then lists them): span (under 20 C or 8 bins, or 3 per coefficient),\n"
@@ -742,6 +771,9 @@ void add_fit_command(CLI::App& app) {
       ->capture_default_str();
   cmd->callback([opts] {
     if (!(opts->bin_width_c > 0.0)) throw InputError("--bin-width: must be positive");
+    if (!(opts->die_lag_s >= 0.0 && std::isfinite(opts->die_lag_s))) {
+      throw InputError("--die-lag-s: must be 0 or more seconds");
+    }
     if (!(opts->scale_mv_per_dps > 0.0)) throw InputError("--scale: must be positive");
     if (opts->dof < 0.0) throw InputError("--dof: must be positive");
     if (opts->cv_block_c && !(*opts->cv_block_c >= 0.0)) throw InputError("--cv-block: must be 0 or more");

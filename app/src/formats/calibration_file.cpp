@@ -336,6 +336,10 @@ std::string format_calibration(const fit::BiasModel& model, double scale_mv_per_
       s += "nested_loo_max_abs_dps = " + format_number(*source.nested_loo_max_abs_dps) + "\n";
       s += "nested_loo_rms_dps = " + format_number(*source.nested_loo_rms_dps) + "\n";
     }
+    if (source.die_lag_s) {
+      s += "# binned by the die's temperature: the casing sensor through a first-order lag\n";
+      s += "die_lag_s = " + format_number(*source.die_lag_s) + "\n";
+    }
     if (!source.accepted.empty()) {
       s += "# record checks overridden with `gyrotc fit --accept`\n";
       s += "accepted = [";

@@ -6,6 +6,7 @@
 #include <limits>
 #include <vector>
 
+#include "gyrotc/algorithms/calibrate/die_temperature.hpp"
 #include "gyrotc/app/formats/csv_table.hpp"
 #include "gyrotc/app/support/errors.hpp"
 
@@ -22,12 +23,16 @@ double median_of(std::vector<double> v) {
 
 }  // namespace
 
-RecordRange read_record_range(const std::string& path) {
+RecordRange read_record_range(const std::string& path, double die_lag_s) {
   const CsvTable table = CsvTable::read(path);
-  if (!table.has("sensor_c")) throw InputError(path + ": missing column 'sensor_c' (a board record has it)");
-  const std::vector<double> sensor = table.numbers("sensor_c");
+  for (const char* column : {"time_s", "sensor_c"}) {
+    if (!table.has(column)) throw InputError(path + ": missing column '" + column + "' (a board record has it)");
+  }
+  const std::vector<double> sensor = calibrate::die_temperature_c(table.numbers("time_s"), table.numbers("sensor_c"),
+                                                                  die_lag_s);
   if (sensor.empty()) throw InputError(path + ": no rows");
   RecordRange r;
+  r.die_lag_s = std::max(0.0, die_lag_s);
   const auto [lo, hi] = std::minmax_element(sensor.begin(), sensor.end());
   r.low_c = *lo;
   r.high_c = *hi;
@@ -37,18 +42,23 @@ RecordRange read_record_range(const std::string& path) {
 }
 
 std::string service_range_gap(const RecordRange& r) {
-  char buf[320];
+  char what[96];
+  if (r.die_lag_s > 0.0) {
+    std::snprintf(what, sizeof what, "the die (the casing sensor through a %.1f s lag)", r.die_lag_s);
+  } else {
+    std::snprintf(what, sizeof what, "the casing");
+  }
+  char buf[400];
   if (std::isfinite(r.ambient_c) && r.low_c > r.ambient_c) {
     std::snprintf(buf, sizeof buf,
-                  "the casing spans %.1f .. %.1f C, above the run's ambient %.1f C: a unit warming from the ambient "
+                  "%s spans %.1f .. %.1f C, above the run's ambient %.1f C: a unit warming from the ambient "
                   "passes temperatures the calibration never saw",
-                  r.low_c, r.high_c, r.ambient_c);
+                  what, r.low_c, r.high_c, r.ambient_c);
     return buf;
   }
   if (std::isfinite(r.setpoint_c) && r.high_c < r.setpoint_c) {
-    std::snprintf(buf, sizeof buf,
-                  "the casing spans %.1f .. %.1f C, short of the setpoint %.1f C the unit is held at in service",
-                  r.low_c, r.high_c, r.setpoint_c);
+    std::snprintf(buf, sizeof buf, "%s spans %.1f .. %.1f C, short of the setpoint %.1f C the unit is held at in service",
+                  what, r.low_c, r.high_c, r.setpoint_c);
     return buf;
   }
   return "";

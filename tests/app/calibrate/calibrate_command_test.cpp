@@ -9,6 +9,7 @@
 #include <filesystem>
 #include <fstream>
 #include <functional>
+#include <iterator>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -36,6 +37,19 @@ std::string scurve_plant() {
   }
   return "format = \"gyrotc-plant\"\nversion = 1\n[gyro]\nzero_bias_c = [" + c.str() + "]\nzero_bias_mv = [" +
          mv.str() + "]\n";
+}
+
+// A bowl lowest at 30 C, on a die that lags the casing by 300 s (1.6 J/K on
+// 5.33 mW/K), where the plant's default lags 40 s.
+std::string slow_die_bowl_plant() {
+  std::ostringstream c;
+  std::ostringstream mv;
+  for (int t = -40; t <= 80; t += 5) {
+    c << (t == -40 ? "" : ", ") << t;
+    mv << (t == -40 ? "" : ", ") << 60.0 + 0.012 * (t - 30.0) * (t - 30.0);
+  }
+  return "format = \"gyrotc-plant\"\nversion = 1\n[thermal]\ncasing_die_w_per_k = 0.0053333\n[gyro]\nzero_bias_c = [" +
+         c.str() + "]\nzero_bias_mv = [" + mv.str() + "]\n";
 }
 
 const std::string& plant_file() {
@@ -82,9 +96,9 @@ std::string holds_profile() {
   return p;
 }
 
-double worst_held_bias_dps(const std::string& calibration) {
+double worst_held_bias_dps(const std::string& calibration, const std::string& plant = plant_file()) {
   const std::string printed = run_command(gyrotc::app::add_simulate_command, "simulate",
-                                          {"--profile", holds_profile(), "--controller", "off", "--plant", plant_file(),
+                                          {"--profile", holds_profile(), "--controller", "off", "--plant", plant,
                                            "--sample-rate-hz", "50", "--seed", "7", "--calibration", calibration,
                                            "--json"});
   return nlohmann::json::parse(printed).at("bias_compensated_max_abs_dps").get<double>();
@@ -194,4 +208,36 @@ TEST_CASE("calibrate tells the die's lag from a hysteresis on the sweep: the pla
   CHECK(std::fabs(lag - 40.0) < 3.0 * lag_se);
   CHECK(lag_se < 8.0);
   CHECK(std::fabs(s.at("split_mv").get<double>()) < 3.0 * s.at("split_mv_std").get<double>());
+}
+
+TEST_CASE("calibrate bins a slow die's sweep by the die's temperature: a third of the held bias binning by the sensor leaves") {
+  std::filesystem::create_directories(kDir);
+  const std::string plant = kDir + "/slow_die_bowl.toml";
+  std::ofstream(plant) << slow_die_bowl_plant();
+  (void)run_command(gyrotc::app::add_simulate_command, "simulate",
+                    {"--profile", "selfcal", "--ambient-c", "20", "--plant", plant, "--sample-rate-hz", "50", "--out",
+                     kDir + "/slow_die"});
+  const std::string record = kDir + "/slow_die/record.csv";
+  const std::string by_die = kDir + "/slow_die.toml";
+  const std::string by_sensor = kDir + "/slow_die_sensor.toml";
+  (void)run_command(gyrotc::app::add_calibrate_command, "calibrate", {"--data", record, "--out", by_die});
+  (void)run_command(gyrotc::app::add_calibrate_command, "calibrate",
+                    {"--data", record, "--die-lag-s", "0", "--out", by_sensor});
+  std::ifstream file(by_die);
+  const std::string text((std::istreambuf_iterator<char>(file)), std::istreambuf_iterator<char>());
+  CHECK(text.find("die_lag_s = ") != std::string::npos);
+  const double die_dps = worst_held_bias_dps(by_die, plant);
+  const double sensor_dps = worst_held_bias_dps(by_sensor, plant);
+  INFO("worst held bias: binned by the die " << die_dps << " deg/s, by the sensor " << sensor_dps << " deg/s");
+  CHECK(die_dps < 0.05);
+  CHECK(die_dps < 0.5 * sensor_dps);
+}
+
+TEST_CASE("calibrate --die-lag-s must be a lag: a negative one is refused") {
+  const std::string e = input_error_of([&] {
+    (void)run_command(gyrotc::app::add_calibrate_command, "calibrate",
+                      {"--data", selfcal_record(), "--die-lag-s", "-5", "--out", kDir + "/neg.toml"});
+  });
+  CHECK_THAT(e, Catch::Contains("--die-lag-s"));
+  CHECK_FALSE(std::filesystem::exists(kDir + "/neg.toml"));
 }

@@ -177,6 +177,46 @@ TEST_CASE("fit fits the same slow sweep the TEC did not hold") {
   fs::remove(p);
 }
 
+namespace {
+
+// The gyro reads a line at the die, which lags the sensor by 600 s: on the
+// slow sweep's 0.1 C/min ramp it sits 1 C behind.
+std::string lagging_die_record() {
+  std::string csv = "time_s,sensor_c,gyro_mv\n";
+  double die_c = slow_sweep(0.0);
+  for (int i = 0; i < 36000; ++i) {
+    const double sensor_c = slow_sweep(i);
+    die_c += (sensor_c - die_c) * (1.0 - std::exp(-1.0 / 600.0));
+    csv += std::to_string(i) + "," + std::to_string(sensor_c) + "," + std::to_string(100.0 - 0.5 * die_c) + "\n";
+  }
+  return csv;
+}
+
+}  // namespace
+
+TEST_CASE("fit --die-lag-s bins a recording by the die's temperature, where the sensor's bins are a degree off") {
+  const fs::path p = write_temp("lagging_die.csv", lagging_die_record());
+  const fs::path by_die = fs::temp_directory_path() / (std::to_string(::getpid()) + "_by_die.toml");
+  const fs::path by_sensor = fs::temp_directory_path() / (std::to_string(::getpid()) + "_by_sensor.toml");
+  run_fit({"--data", p.string(), "--method", "poly", "--order", "1", "--die-lag-s", "600", "--out", by_die.string()});
+  run_fit({"--data", p.string(), "--method", "poly", "--order", "1", "--out", by_sensor.string()});
+  // The line is 100 mV at 0 C; binned by the sensor it is read 1 C late (0.5 mV).
+  CHECK(gyrotc::app::load_calibration(by_die.string()).bias_mv(0.0) == Approx(100.0).margin(0.02));
+  CHECK(gyrotc::app::load_calibration(by_sensor.string()).bias_mv(0.0) == Approx(100.5).margin(0.05));
+  const auto j = nlohmann::json::parse(
+      run_fit({"--data", p.string(), "--method", "poly", "--order", "1", "--die-lag-s", "600", "--json"}));
+  CHECK(j["die_lag_s"] == 600.0);
+  CHECK_THAT(j["input"].get<std::string>(), Catch::Contains("bins of the die (the sensor through a 600.0 s lag)"));
+  fs::remove(p);
+  fs::remove(by_die);
+  fs::remove(by_sensor);
+}
+
+TEST_CASE("fit --die-lag-s is refused on a table, which has no time to lag over, and when negative") {
+  CHECK_THAT(error_of({"--data", kTable2, "--die-lag-s", "60"}), Catch::Contains("--die-lag-s: a table"));
+  CHECK_THAT(error_of({"--data", kTable2, "--die-lag-s", "-1"}), Catch::Contains("--die-lag-s: must be 0 or more"));
+}
+
 TEST_CASE("a recording's bins are held out two bin widths each side by default, a table's one by one") {
   const fs::path p = write_temp("blocks.csv", board_record(36000, slow_sweep, false));
   const auto series = nlohmann::json::parse(run_fit({"--data", p.string(), "--no-nested", "--json"}));

@@ -26,6 +26,8 @@ struct CalibrationSource {
   std::optional<double> nested_loo_rms_dps;
   // The record checks `fit --accept` overrode, "check: reason" each.
   std::vector<std::string> accepted;
+  // A recording binned by the die's temperature: the sensor through this lag.
+  std::optional<double> die_lag_s;
 };
 
 struct Calibration {

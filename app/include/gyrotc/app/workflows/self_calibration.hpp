@@ -9,15 +9,17 @@
 namespace gyrotc::app {
 
 struct RecordRange {
-  double low_c = 0.0;      // the casing's (sensor_c) span
+  double low_c = 0.0;      // the casing's (sensor_c) span, or the die's estimated from it
   double high_c = 0.0;
+  double die_lag_s = 0.0;  // the die's lag behind the sensor the span was estimated with (0: the sensor's)
   double ambient_c = 0.0;   // the median ambient_c (NaN without the column)
   double setpoint_c = 0.0;  // setpoint_c (NaN without the column)
 };
 
-// Reads sensor_c, ambient_c and setpoint_c of a board record. InputError
-// naming the file when sensor_c is missing.
-RecordRange read_record_range(const std::string& path);
+// Reads time_s, sensor_c, ambient_c and setpoint_c of a board record; with
+// die_lag_s > 0 the span is the die's (calibrate/die_temperature.hpp), which
+// the fit bins by. InputError naming the file when a column is missing.
+RecordRange read_record_range(const std::string& path, double die_lag_s = 0.0);
 
 // "" when the range covers the ambient of the run up to the setpoint (the
 // unit in service warms from one to the other); else why not, one clause.
