@@ -18,7 +18,8 @@ SweepRange SweepPlan::range(double ambient_c, double setpoint_c) const noexcept 
 double SweepPlan::max_duration_s(const SweepRange& r) const noexcept {
   // From anywhere in the range: down to the low end, up to the high end,
   // back; each end may add a stall before it is taken as the end.
-  return rest_s + 2.0 * std::max(0.0, r.high_c - r.low_c) / (rate_c_per_min / 60.0) + 2.0 * (dwell_s + stall_s);
+  return rest_s + 2.0 * std::max(0.0, r.high_c - r.low_c) / (rate_c_per_min / 60.0) +
+         2.0 * (std::max(dwell_s, dwell_max_s) + stall_s);
 }
 
 void validate(const SweepPlan& p) {
@@ -37,6 +38,9 @@ void validate(const SweepPlan& p) {
   require(positive(p.rate_c_per_min) && p.rate_c_per_min <= 5.0, "rate_c_per_min", "must be within (0, 5]");
   require(non_negative(p.rest_s), "rest_s", "must be zero or positive");
   require(non_negative(p.dwell_s), "dwell_s", "must be zero or positive");
+  require(std::isfinite(p.dwell_max_s) && p.dwell_max_s >= p.dwell_s, "dwell_max_s", "must be at least dwell_s");
+  require(positive(p.settle_window_s) && p.settle_window_s <= 1800.0, "settle_window_s", "must be within (0, 1800] s");
+  require(positive(p.settle_dps), "settle_dps", "must be positive");
   require(non_negative(p.track_kp_a_per_c), "track_kp_a_per_c", "must be zero or positive");
   require(positive(p.track_ki_a_per_c_s), "track_ki_a_per_c_s", "must be positive");
   require(positive(p.stall_c), "stall_c", "must be positive");
@@ -64,6 +68,8 @@ const char* to_string(SweepPhase phase) noexcept {
 
 SweepExperiment::SweepExperiment(const SweepPlan& plan)
     : plan_(plan),
+      dwell_low_s_(std::numeric_limits<double>::quiet_NaN()),
+      dwell_high_s_(std::numeric_limits<double>::quiet_NaN()),
       reached_low_c_(std::numeric_limits<double>::quiet_NaN()),
       reached_high_c_(std::numeric_limits<double>::quiet_NaN()),
       target_shown_c_(std::numeric_limits<double>::quiet_NaN()),
@@ -80,6 +86,56 @@ void SweepExperiment::enter(SweepPhase phase, double time_s) noexcept {
 
 void SweepExperiment::note_extreme(double casing_c, double direction) noexcept {
   if ((casing_c - extreme_c_) * direction > 0.0) extreme_c_ = casing_c;
+}
+
+// The periods' means pooled into points at least settle_window_s / 500
+// apart, so the ring holds a whole window at any control period.
+void SweepExperiment::note_gyro(const control::TecProgramInput& in) noexcept {
+  if (!std::isfinite(in.gyro_mv)) return;
+  pool_time_sum_s_ += in.time_s;
+  pool_gyro_sum_mv_ += in.gyro_mv;
+  pool_count_ += 1.0;
+  if (in.time_s - pool_start_s_ < plan_.settle_window_s / 500.0) return;
+  gyro_[gyro_next_] = {pool_time_sum_s_ / pool_count_, pool_gyro_sum_mv_ / pool_count_};
+  gyro_next_ = (gyro_next_ + 1) % gyro_.size();
+  gyro_count_ = std::min(gyro_count_ + 1, gyro_.size());
+  pool_start_s_ = in.time_s;
+  pool_time_sum_s_ = pool_gyro_sum_mv_ = pool_count_ = 0.0;
+}
+
+// The least-squares line through the gyro's means of the last
+// settle_window_s of the dwell: settled when it moves the output by at most
+// settle_dps over the window; not yet judged while the dwell is younger than
+// the window; unknown when the window holds too few means (no samples).
+SweepExperiment::Settling SweepExperiment::gyro_settling(const control::TecProgramInput& in) const noexcept {
+  if (in.time_s - phase_start_s_ < plan_.settle_window_s) return Settling::moving;
+  const double from_s = in.time_s - plan_.settle_window_s;
+  double n = 0.0, st = 0.0, sy = 0.0, stt = 0.0, sty = 0.0;
+  for (std::size_t k = 0; k < gyro_count_; ++k) {
+    const GyroMean& g = gyro_[(gyro_next_ + gyro_.size() - 1 - k) % gyro_.size()];
+    if (g.time_s < from_s) break;
+    const double t = g.time_s - in.time_s;
+    n += 1.0;
+    st += t;
+    sy += g.gyro_mv;
+    stt += t * t;
+    sty += t * g.gyro_mv;
+  }
+  if (n < 10.0) return Settling::unknown;
+  const double slope_mv_per_s = (n * sty - st * sy) / (n * stt - st * st);
+  return std::fabs(slope_mv_per_s) * plan_.settle_window_s <= plan_.settle_dps * in.gyro_scale_mv_per_dps
+             ? Settling::settled
+             : Settling::moving;
+}
+
+// At least dwell_s; then until the gyro settles (settled: true), at most
+// dwell_max_s, or at dwell_s when the gyro cannot be judged.
+bool SweepExperiment::dwell_over(const control::TecProgramInput& in, bool& settled) const noexcept {
+  const double held_s = in.time_s - phase_start_s_;
+  if (held_s < plan_.dwell_s) return false;
+  const Settling settling = gyro_settling(in);
+  settled = settling == Settling::settled;
+  return settling != Settling::moving || held_s >= plan_.dwell_max_s;
 }
 
 // PI on the moving target, integrating only while the output is not held at
@@ -145,6 +201,7 @@ double SweepExperiment::estimate_remaining_s(double time_s) const noexcept {
 control::TecProgramOutput SweepExperiment::do_next(const control::TecProgramInput& in) noexcept {
   const double dt_s = std::max(0.0, in.time_s - last_time_s_);
   last_time_s_ = in.time_s;
+  note_gyro(in);
   const double rate_c_per_s = plan_.rate_c_per_min / 60.0;
   // One ramp step towards `end_c`; true once the target is there.
   auto ramp = [&](double end_c, double direction) {
@@ -187,7 +244,9 @@ control::TecProgramOutput SweepExperiment::do_next(const control::TecProgramInpu
       break;
     case SweepPhase::dwell_low:
       note_extreme(in.casing_c, -1.0);
-      if (in.time_s - phase_start_s_ >= plan_.dwell_s) {
+      if (bool settled = false; dwell_over(in, settled)) {
+        settled_low_.store(settled, std::memory_order_relaxed);
+        dwell_low_s_.store(in.time_s - phase_start_s_, std::memory_order_relaxed);
         reached_low_c_.store(extreme_c_, std::memory_order_relaxed);
         enter(SweepPhase::up, in.time_s);
       }
@@ -203,7 +262,9 @@ control::TecProgramOutput SweepExperiment::do_next(const control::TecProgramInpu
       break;
     case SweepPhase::dwell_high:
       note_extreme(in.casing_c, 1.0);
-      if (in.time_s - phase_start_s_ >= plan_.dwell_s) {
+      if (bool settled = false; dwell_over(in, settled)) {
+        settled_high_.store(settled, std::memory_order_relaxed);
+        dwell_high_s_.store(in.time_s - phase_start_s_, std::memory_order_relaxed);
         reached_high_c_.store(extreme_c_, std::memory_order_relaxed);
         start_c_ = std::clamp(start_c_, reached_low_c(), reached_high_c());
         enter(SweepPhase::back, in.time_s);

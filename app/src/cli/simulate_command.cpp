@@ -332,12 +332,18 @@ void print_text(const nlohmann::json& j, const std::optional<std::string>& csv,
   }
   if (j.contains("record") && j["profile"] == "selfcal") {
     const auto& e = j["experiment"];
-    std::printf("  self-calibration sweep: %.0f s at %.1f C ambient%s; casing %s .. %s C (asked %.1f .. %.1f C)\n"
+    const auto held = [&](const char* dwell, const char* settled) {
+      if (!e[dwell].is_number()) return std::string("-");
+      return num(e[dwell], "%.0f") + " s" + (e[settled].get<bool>() ? "" : " (the gyro still moving)");
+    };
+    std::printf("  self-calibration sweep: %.0f s at %.1f C ambient%s; casing %s .. %s C (asked %.1f .. %.1f C); "
+                "ends held %s and %s\n"
                 "  record for `gyrotc calibrate --data %s --out calibration.toml`\n",
                 e["duration_s"].get<double>(), e["ambient_c"].get<double>(),
                 e["finished"].get<bool>() ? "" : " (did not finish)", num(e["reached_low_c"], "%.1f").c_str(),
                 num(e["reached_high_c"], "%.1f").c_str(), e["asked_low_c"].get<double>(),
-                e["asked_high_c"].get<double>(), j["record"].get<std::string>().c_str());
+                e["asked_high_c"].get<double>(), held("dwell_low_s", "settled_low").c_str(),
+                held("dwell_high_s", "settled_high").c_str(), j["record"].get<std::string>().c_str());
   } else if (j.contains("record")) {
     std::printf("  identification experiment: %.0f s at %.1f C ambient%s; record for `gyrotc tune`: %s\n",
                 j["experiment"]["duration_s"].get<double>(), j["experiment"]["ambient_c"].get<double>(),
@@ -445,7 +451,11 @@ void run(const SimulateOptions& o) {
                        {"asked_low_c", sweep_range.low_c},
                        {"asked_high_c", sweep_range.high_c},
                        {"reached_low_c", temp(sweep.reached_low_c())},
-                       {"reached_high_c", temp(sweep.reached_high_c())}};
+                       {"reached_high_c", temp(sweep.reached_high_c())},
+                       {"dwell_low_s", temp(sweep.dwell_low_s())},
+                       {"dwell_high_s", temp(sweep.dwell_high_s())},
+                       {"settled_low", sweep.settled_low()},
+                       {"settled_high", sweep.settled_high()}};
   }
   if (!o.out.empty()) {
     csv_path = o.out + "/simulation.csv";

@@ -116,6 +116,10 @@ SampleResult Controller::on_sample(const hal::AdcSample& sample, double now_s) n
   const double rate_dps = (sample.gyro_mv - cached_bias_mv_) * inverse_scale_;
   result.valid = !sample.clipped && std::isfinite(rate_dps);
   set_flag(kFlagAdcInvalid, sample.clipped);
+  if (program_ != nullptr && !sample.clipped && std::isfinite(sample.gyro_mv)) {
+    program_gyro_sum_mv_ += sample.gyro_mv;
+    ++program_gyro_count_;
+  }
   result.bias_mv = cached_bias_mv_;
   const double mid_v = 0.5 * config_.rate_dac_vref_v;
   if (result.valid) {
@@ -314,6 +318,8 @@ TecCommand Controller::drive(double current_a, bool saturated, double now_s) noe
 void Controller::run_program(control::TecProgram* program) noexcept {
   program_ = program;
   program_started_ = false;
+  program_gyro_sum_mv_ = 0.0;
+  program_gyro_count_ = 0;
   program_finished_.store(false, std::memory_order_release);
   pid_running_ = false;
 }
@@ -331,6 +337,11 @@ TecCommand Controller::program_tick(double now_s) noexcept {
   const control::CurrentRange range = applied_range();
   in.min_a = range.min_a;
   in.max_a = range.max_a;
+  in.gyro_mv = program_gyro_count_ > 0 ? program_gyro_sum_mv_ / static_cast<double>(program_gyro_count_)
+                                        : std::numeric_limits<double>::quiet_NaN();
+  in.gyro_scale_mv_per_dps = 1.0 / inverse_scale_;
+  program_gyro_sum_mv_ = 0.0;
+  program_gyro_count_ = 0;
   active_setpoint_c_ = config_.setpoint_c;
   const control::TecProgramOutput out = program_->next(in);
   if (out.finished || !std::isfinite(out.current_a)) {

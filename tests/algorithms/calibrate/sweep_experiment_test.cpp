@@ -3,7 +3,10 @@
 // what it asks of the stage and what the record gets.
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <limits>
+#include <optional>
+#include <random>
 #include <stdexcept>
 #include <vector>
 
@@ -23,18 +26,39 @@ struct Casing {
   double temp_c = 20.0;
 };
 
+// The gyro die inside the casing, which the sensor does not show: it follows
+// the casing through a first-order lag, and the gyro reads a line at the
+// die, with white noise on each period's mean and a first-order wander (the
+// plant's own figures are not used: these are of the same class).
+struct Die {
+  double lag_s = 40.0;
+  double slope_mv_per_c = 0.5;
+  double drift_mv_per_s = 0.0;  // a bias that keeps moving whatever the die does
+  double white_mv = 0.0;        // per 2 s mean
+  double wander_mv = 0.0;
+  double wander_tau_s = 100.0;
+  std::uint64_t seed = 3;
+};
+
 struct Trace {
   std::vector<double> time_s;
   std::vector<double> casing_c;
+  std::vector<double> die_c;
   std::vector<SweepPhase> phase;
   bool finished = false;
 };
 
 double quantised(double c) { return std::round(c * 16.0) / 16.0; }
 
-Trace run(SweepExperiment& sweep, Casing plant, double setpoint_c = 55.0, double limit_a = 1.0) {
+// Without a die the programme gets no gyro output (NaN, as with no samples).
+Trace run(SweepExperiment& sweep, Casing plant, double setpoint_c = 55.0, double limit_a = 1.0,
+          std::optional<Die> die = std::nullopt) {
   Trace t;
   constexpr double kPeriodS = 2.0;  // the controller's PID period
+  std::mt19937_64 rng(die ? die->seed : 0);
+  std::normal_distribution<double> normal;
+  double die_c = plant.temp_c;
+  double wander_mv = 0.0;
   for (double time_s = 0.0; time_s < 8.0 * 3600.0; time_s += kPeriodS) {
     TecProgramInput in;
     in.time_s = time_s;
@@ -43,9 +67,16 @@ Trace run(SweepExperiment& sweep, Casing plant, double setpoint_c = 55.0, double
     in.setpoint_c = setpoint_c;
     in.min_a = -limit_a;
     in.max_a = limit_a;
+    if (die) {
+      const double a = std::exp(-kPeriodS / die->wander_tau_s);
+      wander_mv = a * wander_mv + std::sqrt(1.0 - a * a) * die->wander_mv * normal(rng);
+      in.gyro_mv = die->slope_mv_per_c * die_c + die->drift_mv_per_s * time_s + wander_mv + die->white_mv * normal(rng);
+      in.gyro_scale_mv_per_dps = 8.774;
+    }
     const auto out = sweep.next(in);
     t.time_s.push_back(time_s);
     t.casing_c.push_back(plant.temp_c);
+    t.die_c.push_back(die_c);
     t.phase.push_back(sweep.phase());
     if (out.finished) {
       t.finished = true;
@@ -56,9 +87,26 @@ Trace run(SweepExperiment& sweep, Casing plant, double setpoint_c = 55.0, double
       const double dt = kPeriodS / 20.0;
       plant.temp_c += dt * (plant.gain_w_per_a * current_a - plant.loss_w_per_k * (plant.temp_c - plant.ambient_c)) /
                       plant.capacity_j_per_k;
+      if (die) die_c += dt * (plant.temp_c - die_c) / die->lag_s;
     }
   }
   return t;
+}
+
+// The row where a phase ends (its last row).
+std::size_t end_of(const Trace& t, SweepPhase phase) {
+  std::size_t last = 0;
+  for (std::size_t i = 0; i < t.phase.size(); ++i) {
+    if (t.phase[i] == phase) last = i;
+  }
+  return last;
+}
+
+std::size_t start_of(const Trace& t, SweepPhase phase) {
+  for (std::size_t i = 0; i < t.phase.size(); ++i) {
+    if (t.phase[i] == phase) return i;
+  }
+  return t.phase.size();
 }
 
 }  // namespace
@@ -163,6 +211,69 @@ TEST_CASE("an end the casing lagged short of is reported where the casing was, n
   CHECK(sweep.reached_high_c() == Approx(*hi).margin(0.07));
 }
 
+TEST_CASE("an end is held until the gyro's output settles: a slow die the sensor does not show is waited for") {
+  Die slow;
+  slow.lag_s = 400.0;
+  slow.white_mv = 0.1;
+  slow.wander_mv = 0.088;  // 0.01 deg/s
+  SweepExperiment sweep;
+  const Trace t = run(sweep, Casing{}, 55.0, 1.0, slow);
+  REQUIRE(t.finished);
+  for (SweepPhase dwell : {SweepPhase::dwell_low, SweepPhase::dwell_high}) {
+    const std::size_t start = start_of(t, dwell);
+    const std::size_t end = end_of(t, dwell);
+    const std::size_t after_fixed_dwell = start + static_cast<std::size_t>(sweep.plan().dwell_s / 2.0);
+    INFO(to_string(dwell) << ": held " << t.time_s[end] - t.time_s[start] << " s; die " << t.die_c[end] << " C, casing "
+                          << t.casing_c[end] << " C; after dwell_s the die was " << t.die_c[after_fixed_dwell] << " C");
+    // dwell_s alone would have turned with the die 1.5 C away or more.
+    CHECK(std::fabs(t.die_c[after_fixed_dwell] - t.casing_c[after_fixed_dwell]) > 1.5);
+    CHECK(std::fabs(t.die_c[end] - t.casing_c[end]) < 0.75);
+  }
+  CHECK(sweep.dwell_low_s() > 2.0 * sweep.plan().dwell_s);
+  CHECK(sweep.dwell_high_s() > 2.0 * sweep.plan().dwell_s);
+  CHECK(sweep.settled_low());  // before dwell_max_s
+  CHECK(sweep.settled_high());
+}
+
+TEST_CASE("a die that keeps up with the casing is held as long as the casing takes to settle, and judged settled") {
+  // The casing overshoots a ramp's end and creeps back; the gyro follows it.
+  // A die 20 s behind adds next to nothing to that wait.
+  Die instant;
+  instant.lag_s = 1.0;
+  Die quick;
+  quick.lag_s = 20.0;
+  SweepExperiment follows_at_once;
+  SweepExperiment follows_quickly;
+  REQUIRE(run(follows_at_once, Casing{}, 55.0, 1.0, instant).finished);
+  REQUIRE(run(follows_quickly, Casing{}, 55.0, 1.0, quick).finished);
+  CHECK(follows_quickly.dwell_low_s() == Approx(follows_at_once.dwell_low_s()).margin(40.0));
+  CHECK(follows_quickly.dwell_high_s() == Approx(follows_at_once.dwell_high_s()).margin(40.0));
+  CHECK(follows_quickly.dwell_low_s() < 0.5 * follows_quickly.plan().dwell_max_s);
+  CHECK(follows_quickly.settled_low());
+  CHECK(follows_quickly.settled_high());
+}
+
+TEST_CASE("a gyro whose output never settles is held dwell_max_s, and not called settled") {
+  Die drifting;
+  drifting.drift_mv_per_s = 1e-3;  // 0.24 mV over the window: 0.027 deg/s
+  SweepExperiment sweep;
+  const Trace t = run(sweep, Casing{}, 55.0, 1.0, drifting);
+  REQUIRE(t.finished);
+  CHECK(sweep.dwell_low_s() == Approx(sweep.plan().dwell_max_s).margin(2.0));
+  CHECK(sweep.dwell_high_s() == Approx(sweep.plan().dwell_max_s).margin(2.0));
+  CHECK_FALSE(sweep.settled_low());
+  CHECK(t.time_s.back() <= sweep.plan().max_duration_s(sweep.range()));
+}
+
+TEST_CASE("without the gyro's output the ends are held dwell_s, not called settled") {
+  SweepExperiment sweep;
+  const Trace t = run(sweep, Casing{});
+  REQUIRE(t.finished);
+  CHECK(sweep.dwell_low_s() == Approx(sweep.plan().dwell_s).margin(2.0));
+  CHECK_FALSE(sweep.settled_low());
+  CHECK_FALSE(sweep.settled_high());
+}
+
 TEST_CASE("a ceiling below the range's low end sweeps nothing and ends at once with the TEC off") {
   SweepPlan plan;
   plan.ceiling_c = 10.0;
@@ -183,6 +294,12 @@ TEST_CASE("a bad sweep plan is refused naming the field") {
   p = {};
   p.stall_s = -1.0;
   CHECK_THROWS_WITH(validate(p), Catch::Contains("stall_s"));
+  p = {};
+  p.dwell_max_s = p.dwell_s - 1.0;
+  CHECK_THROWS_WITH(validate(p), Catch::Contains("dwell_max_s"));
+  p = {};
+  p.settle_dps = 0.0;
+  CHECK_THROWS_WITH(validate(p), Catch::Contains("settle_dps"));
 }
 
 TEST_CASE("the time left it reports falls as the sweep goes and is within a tenth of what was left") {

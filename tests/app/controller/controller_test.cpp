@@ -525,6 +525,31 @@ TEST_CASE("a TEC programme replaces the PID within the limits, and the TEC stays
   CHECK(program.calls == calls);  // not asked again
 }
 
+TEST_CASE("a TEC programme gets the gyro's mean output over the samples since its last period, clipped ones left out") {
+  Harness h;
+  FixedProgram program(0.1, 1e9);
+  h.controller.run_program(&program);
+  h.run_for(2.0, 30.0, true, false);  // the first period: its samples are not the ones below
+  const double t = h.now_s;
+  for (double mv : {100.0, 104.0}) {
+    AdcSample s;
+    s.gyro_mv = mv;
+    (void)h.controller.on_sample(s, t + 0.5);
+  }
+  AdcSample clipped;
+  clipped.gyro_mv = 2500.0;
+  clipped.clipped = true;
+  (void)h.controller.on_sample(clipped, t + 0.6);
+  h.controller.on_temperature(good(30.0, t + 0.7), t + 0.7);
+  (void)h.controller.on_pid_tick(t + 2.0);
+  CHECK(program.last.gyro_mv == Approx(102.0));
+  CHECK(program.last.gyro_scale_mv_per_dps == Approx(8.774));
+  // A period without samples: no output to judge.
+  h.controller.on_temperature(good(30.0, t + 3.0), t + 3.0);
+  (void)h.controller.on_pid_tick(t + 4.0);
+  CHECK(std::isnan(program.last.gyro_mv));
+}
+
 TEST_CASE("a TEC programme is not asked while a fail-safe holds the TEC off") {
   Harness h;
   FixedProgram program(0.3, 1e9);

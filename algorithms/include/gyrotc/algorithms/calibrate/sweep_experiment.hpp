@@ -1,6 +1,8 @@
 #pragma once
 
+#include <array>
 #include <atomic>
+#include <cstddef>
 #include <cstdint>
 #include <limits>
 
@@ -18,7 +20,8 @@
 //   rest      TEC at 0 A: the starting casing temperature
 //   down      a target ramps from there down to low_c at rate_c_per_min; a
 //             PI tracks it
-//   dwell_low the target held: the die, which lags the sensor, catches up
+//   dwell_low the target held until the gyro's output settles: the die,
+//             which lags the sensor, catches up
 //   up        the ramp from the low end up to high_c
 //   dwell_high
 //   back      the ramp down to the starting temperature; then the TEC goes off
@@ -54,7 +57,18 @@ struct SweepPlan {
   double ceiling_c = 75.0;
   double rate_c_per_min = 0.6;  // the ramps' rate
   double rest_s = 10.0;
-  double dwell_s = 300.0;       // at each end: 7 x the default plant's 40 s die time constant
+  // Each end is held at least dwell_s (7 x the default plant's 40 s die time
+  // constant), then until the gyro's output has settled: its linear trend
+  // over the last settle_window_s moves it by at most settle_dps across the
+  // window (the bias instability of a gyro of this class; its wander alone
+  // passes within a few periods), and at most dwell_max_s (both ends held
+  // that long keep the default sweep at 20 C ambient within 4 h). A slow
+  // die, which the sensor does not show, is waited for; without gyro
+  // samples the dwell is dwell_s.
+  double dwell_s = 300.0;
+  double dwell_max_s = 1200.0;
+  double settle_window_s = 240.0;
+  double settle_dps = 0.01;
   double track_kp_a_per_c = 0.2;
   double track_ki_a_per_c_s = 2e-3;
   double stall_c = 2.0;
@@ -93,6 +107,12 @@ class SweepExperiment final : public control::TecProgram {
   double reached_high_c() const noexcept { return reached_high_c_.load(std::memory_order_relaxed); }
   double target_c() const noexcept { return target_shown_c_.load(std::memory_order_relaxed); }
   double remaining_s() const noexcept { return remaining_s_.load(std::memory_order_relaxed); }
+  // How long each end was held (NaN until its dwell is over), and whether the
+  // gyro settled in it (false: held dwell_max_s, or no gyro samples).
+  double dwell_low_s() const noexcept { return dwell_low_s_.load(std::memory_order_relaxed); }
+  double dwell_high_s() const noexcept { return dwell_high_s_.load(std::memory_order_relaxed); }
+  bool settled_low() const noexcept { return settled_low_.load(std::memory_order_relaxed); }
+  bool settled_high() const noexcept { return settled_high_.load(std::memory_order_relaxed); }
 
   const SweepPlan& plan() const noexcept { return plan_; }
   // The range asked for, once the rest is over (NaN before). The runner's
@@ -105,6 +125,10 @@ class SweepExperiment final : public control::TecProgram {
   double track(const control::TecProgramInput& in, double dt_s) noexcept;
   bool stalled(const control::TecProgramInput& in, double direction, double dt_s) noexcept;
   void note_extreme(double casing_c, double direction) noexcept;
+  void note_gyro(const control::TecProgramInput& in) noexcept;
+  enum class Settling : std::uint8_t { settled, moving, unknown };
+  Settling gyro_settling(const control::TecProgramInput& in) const noexcept;
+  bool dwell_over(const control::TecProgramInput& in, bool& settled) const noexcept;
 
   double estimate_remaining_s(double time_s) const noexcept;
 
@@ -120,6 +144,22 @@ class SweepExperiment final : public control::TecProgram {
   double stall_time_s_ = 0.0;
   double stall_from_c_ = 0.0;  // the casing when the current stall began
   double extreme_c_ = 0.0;     // the casing's extreme since the ramp towards an end began
+  struct GyroMean {
+    double time_s = 0.0;
+    double gyro_mv = 0.0;
+  };
+  // The gyro's recent means, oldest overwritten (a settle_window_s fits).
+  std::array<GyroMean, 1024> gyro_{};
+  std::size_t gyro_next_ = 0;
+  std::size_t gyro_count_ = 0;
+  double pool_start_s_ = 0.0;  // the periods' means pooled into the next point
+  double pool_time_sum_s_ = 0.0;
+  double pool_gyro_sum_mv_ = 0.0;
+  double pool_count_ = 0.0;
+  std::atomic<double> dwell_low_s_;
+  std::atomic<double> dwell_high_s_;
+  std::atomic<bool> settled_low_{false};
+  std::atomic<bool> settled_high_{false};
   std::atomic<double> reached_low_c_;
   std::atomic<double> reached_high_c_;
   std::atomic<double> target_shown_c_;

@@ -6,6 +6,8 @@
 // fail-safe checks (a fault turns the TEC off and the programme is not asked),
 // and clamps the answer to the limits it passes in. Implementations are
 // real-time safe: next() does not allocate, lock or throw.
+#include <limits>
+
 namespace gyrotc::control {
 
 struct TecProgramInput {
@@ -15,6 +17,11 @@ struct TecProgramInput {
   double setpoint_c = 0.0;  // the controller's setpoint
   double min_a = 0.0;       // the current the stage can apply now (limits and rails)
   double max_a = 0.0;
+  // The gyro's mean output over the samples since the last period (NaN
+  // without one), and its scale: what the self-calibration's dwells watch
+  // settle.
+  double gyro_mv = std::numeric_limits<double>::quiet_NaN();
+  double gyro_scale_mv_per_dps = 1.0;
 };
 
 struct TecProgramOutput {

@@ -227,6 +227,8 @@ class Controller {
   control::TecProgram* program_ = nullptr;
   bool program_started_ = false;
   double program_start_s_ = 0.0;
+  double program_gyro_sum_mv_ = 0.0;  // the samples since the programme's last period
+  std::size_t program_gyro_count_ = 0;
   std::atomic<bool> program_finished_{false};
   double active_setpoint_c_;
   double last_tick_s_ = 0.0;
