@@ -70,6 +70,7 @@ SweepExperiment::SweepExperiment(const SweepPlan& plan)
     : plan_(plan),
       dwell_low_s_(std::numeric_limits<double>::quiet_NaN()),
       dwell_high_s_(std::numeric_limits<double>::quiet_NaN()),
+      gyro_trend_dps_(std::numeric_limits<double>::quiet_NaN()),
       reached_low_c_(std::numeric_limits<double>::quiet_NaN()),
       reached_high_c_(std::numeric_limits<double>::quiet_NaN()),
       target_shown_c_(std::numeric_limits<double>::quiet_NaN()),
@@ -82,6 +83,9 @@ void SweepExperiment::enter(SweepPhase phase, double time_s) noexcept {
   phase_.store(phase, std::memory_order_relaxed);
   phase_start_s_ = time_s;
   stall_time_s_ = 0.0;
+  if (phase == SweepPhase::dwell_low || phase == SweepPhase::dwell_high) {
+    gyro_trend_dps_.store(std::numeric_limits<double>::quiet_NaN(), std::memory_order_relaxed);
+  }
 }
 
 void SweepExperiment::note_extreme(double casing_c, double direction) noexcept {
@@ -107,7 +111,9 @@ void SweepExperiment::note_gyro(const control::TecProgramInput& in) noexcept {
 // settle_window_s of the dwell: settled when it moves the output by at most
 // settle_dps over the window; not yet judged while the dwell is younger than
 // the window; unknown when the window holds too few means (no samples).
-SweepExperiment::Settling SweepExperiment::gyro_settling(const control::TecProgramInput& in) const noexcept {
+SweepExperiment::Settling SweepExperiment::gyro_settling(const control::TecProgramInput& in,
+                                                          double& trend_dps) const noexcept {
+  trend_dps = std::numeric_limits<double>::quiet_NaN();
   if (in.time_s - phase_start_s_ < plan_.settle_window_s) return Settling::moving;
   const double from_s = in.time_s - plan_.settle_window_s;
   double n = 0.0, st = 0.0, sy = 0.0, stt = 0.0, sty = 0.0;
@@ -123,17 +129,18 @@ SweepExperiment::Settling SweepExperiment::gyro_settling(const control::TecProgr
   }
   if (n < 10.0) return Settling::unknown;
   const double slope_mv_per_s = (n * sty - st * sy) / (n * stt - st * st);
-  return std::fabs(slope_mv_per_s) * plan_.settle_window_s <= plan_.settle_dps * in.gyro_scale_mv_per_dps
-             ? Settling::settled
-             : Settling::moving;
+  trend_dps = slope_mv_per_s * plan_.settle_window_s / in.gyro_scale_mv_per_dps;
+  return std::fabs(trend_dps) <= plan_.settle_dps ? Settling::settled : Settling::moving;
 }
 
 // At least dwell_s; then until the gyro settles (settled: true), at most
 // dwell_max_s, or at dwell_s when the gyro cannot be judged.
-bool SweepExperiment::dwell_over(const control::TecProgramInput& in, bool& settled) const noexcept {
+bool SweepExperiment::dwell_over(const control::TecProgramInput& in, bool& settled) noexcept {
+  double trend_dps = 0.0;
+  const Settling settling = gyro_settling(in, trend_dps);
+  gyro_trend_dps_.store(trend_dps, std::memory_order_relaxed);
   const double held_s = in.time_s - phase_start_s_;
   if (held_s < plan_.dwell_s) return false;
-  const Settling settling = gyro_settling(in);
   settled = settling == Settling::settled;
   return settling != Settling::moving || held_s >= plan_.dwell_max_s;
 }

@@ -158,9 +158,17 @@ void log_sweep_progress(const calibrate::SweepExperiment& sweep, double casing_c
   };
   char target[24] = "-";
   if (std::isfinite(sweep.target_c())) std::snprintf(target, sizeof target, "%.2f C", sweep.target_c());
-  GYROTC_LOG_NOTICE("self-calibration: %s, casing %.2f C, target %s, ends reached: low %s, high %s; left %s",
+  // In a dwell: why the end is still held (the gyro still settling).
+  char trend[112] = "";
+  const calibrate::SweepPhase phase = sweep.phase();
+  const bool dwell = phase == calibrate::SweepPhase::dwell_low || phase == calibrate::SweepPhase::dwell_high;
+  if (dwell && std::isfinite(sweep.gyro_trend_dps())) {
+    std::snprintf(trend, sizeof trend, "; the gyro moved %.4f deg/s over the last %.0f s (the end turns within %.4f)",
+                  sweep.gyro_trend_dps(), sweep.plan().settle_window_s, sweep.plan().settle_dps);
+  }
+  GYROTC_LOG_NOTICE("self-calibration: %s, casing %.2f C, target %s, ends reached: low %s, high %s; left %s%s",
                     calibrate::to_string(sweep.phase()), casing_c, target, end(sweep.reached_low_c()).c_str(),
-                    end(sweep.reached_high_c()).c_str(), left);
+                    end(sweep.reached_high_c()).c_str(), left, trend);
 }
 
 }  // namespace

@@ -44,6 +44,7 @@ struct Trace {
   std::vector<double> time_s;
   std::vector<double> casing_c;
   std::vector<double> die_c;
+  std::vector<double> trend_dps;  // what the sweep shows after each period
   std::vector<SweepPhase> phase;
   bool finished = false;
 };
@@ -77,6 +78,7 @@ Trace run(SweepExperiment& sweep, Casing plant, double setpoint_c = 55.0, double
     t.time_s.push_back(time_s);
     t.casing_c.push_back(plant.temp_c);
     t.die_c.push_back(die_c);
+    t.trend_dps.push_back(sweep.gyro_trend_dps());
     t.phase.push_back(sweep.phase());
     if (out.finished) {
       t.finished = true;
@@ -233,6 +235,24 @@ TEST_CASE("an end is held until the gyro's output settles: a slow die the sensor
   CHECK(sweep.dwell_high_s() > 2.0 * sweep.plan().dwell_s);
   CHECK(sweep.settled_low());  // before dwell_max_s
   CHECK(sweep.settled_high());
+}
+
+TEST_CASE("in a dwell the sweep shows how far the gyro moved over the window: why the end is still held") {
+  Die slow;
+  slow.lag_s = 400.0;
+  SweepExperiment sweep;
+  const Trace t = run(sweep, Casing{}, 55.0, 1.0, slow);
+  REQUIRE(t.finished);
+  for (SweepPhase dwell : {SweepPhase::dwell_low, SweepPhase::dwell_high}) {
+    const std::size_t start = start_of(t, dwell);
+    const std::size_t turn = end_of(t, dwell) + 1;  // the period the dwell ended in
+    const std::size_t after_fixed_dwell = start + static_cast<std::size_t>(sweep.plan().dwell_s / 2.0);
+    INFO(to_string(dwell) << ": trend " << t.trend_dps[after_fixed_dwell] << " deg/s after dwell_s, "
+                          << t.trend_dps[turn] << " at the turn");
+    CHECK(std::isnan(t.trend_dps[start]));  // not judged before a window's worth
+    CHECK(std::fabs(t.trend_dps[after_fixed_dwell]) > sweep.plan().settle_dps);
+    CHECK(std::fabs(t.trend_dps[turn]) <= sweep.plan().settle_dps);
+  }
 }
 
 TEST_CASE("a die that keeps up with the casing is held as long as the casing takes to settle, and judged settled") {

@@ -113,6 +113,10 @@ class SweepExperiment final : public control::TecProgram {
   double dwell_high_s() const noexcept { return dwell_high_s_.load(std::memory_order_relaxed); }
   bool settled_low() const noexcept { return settled_low_.load(std::memory_order_relaxed); }
   bool settled_high() const noexcept { return settled_high_.load(std::memory_order_relaxed); }
+  // In a dwell, how far the gyro's output moved over the last
+  // settle_window_s, deg/s (NaN until judged): why an end is still held.
+  // After a dwell, the figure it turned at.
+  double gyro_trend_dps() const noexcept { return gyro_trend_dps_.load(std::memory_order_relaxed); }
 
   const SweepPlan& plan() const noexcept { return plan_; }
   // The range asked for, once the rest is over (NaN before). The runner's
@@ -127,8 +131,8 @@ class SweepExperiment final : public control::TecProgram {
   void note_extreme(double casing_c, double direction) noexcept;
   void note_gyro(const control::TecProgramInput& in) noexcept;
   enum class Settling : std::uint8_t { settled, moving, unknown };
-  Settling gyro_settling(const control::TecProgramInput& in) const noexcept;
-  bool dwell_over(const control::TecProgramInput& in, bool& settled) const noexcept;
+  Settling gyro_settling(const control::TecProgramInput& in, double& trend_dps) const noexcept;
+  bool dwell_over(const control::TecProgramInput& in, bool& settled) noexcept;
 
   double estimate_remaining_s(double time_s) const noexcept;
 
@@ -160,6 +164,7 @@ class SweepExperiment final : public control::TecProgram {
   std::atomic<double> dwell_high_s_;
   std::atomic<bool> settled_low_{false};
   std::atomic<bool> settled_high_{false};
+  std::atomic<double> gyro_trend_dps_;
   std::atomic<double> reached_low_c_;
   std::atomic<double> reached_high_c_;
   std::atomic<double> target_shown_c_;
