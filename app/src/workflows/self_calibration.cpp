@@ -28,6 +28,7 @@ RecordRange read_record_range(const std::string& path, double die_lag_s) {
   for (const char* column : {"time_s", "sensor_c"}) {
     if (!table.has(column)) throw InputError(path + ": missing column '" + column + "' (a board record has it)");
   }
+  table.require_increasing("time_s");
   const std::vector<double> sensor = calibrate::die_temperature_c(table.numbers("time_s"), table.numbers("sensor_c"),
                                                                   die_lag_s);
   if (sensor.empty()) throw InputError(path + ": no rows");
@@ -69,6 +70,7 @@ calibrate::UpDownDifference read_up_down_difference(const std::string& path) {
   for (const char* column : {"time_s", "sensor_c", "gyro_mv"}) {
     if (!table.has(column)) throw InputError(path + ": missing column '" + column + "' (a board record has it)");
   }
+  table.require_increasing("time_s");
   const std::vector<double> time_s = table.numbers("time_s");
   const std::vector<double> sensor_c = table.numbers_or_nan("sensor_c");
   const std::vector<double> gyro_mv = table.numbers_or_nan("gyro_mv");

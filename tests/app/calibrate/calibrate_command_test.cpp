@@ -233,6 +233,28 @@ TEST_CASE("calibrate bins a slow die's sweep by the die's temperature: a third o
   CHECK(die_dps < 0.5 * sensor_dps);
 }
 
+TEST_CASE("calibrate refuses a record whose time goes back, naming the line, and writes nothing") {
+  std::ifstream in(selfcal_record());
+  const std::string p = kDir + "/time_back.csv";
+  std::ofstream out(p);
+  std::string line;
+  std::string held;
+  for (int row = 0; std::getline(in, line); ++row) {
+    if (row == 10) {
+      held = line;  // row 10 written after row 11
+      continue;
+    }
+    out << line << "\n";
+    if (row == 11) out << held << "\n";
+  }
+  out.close();
+  const std::string e = input_error_of([&] {
+    (void)run_command(gyrotc::app::add_calibrate_command, "calibrate", {"--data", p, "--out", kDir + "/back.toml"});
+  });
+  CHECK_THAT(e, Catch::Contains("time_back.csv:12: column 'time_s' must increase"));
+  CHECK_FALSE(std::filesystem::exists(kDir + "/back.toml"));
+}
+
 TEST_CASE("calibrate --die-lag-s must be a lag: a negative one is refused") {
   const std::string e = input_error_of([&] {
     (void)run_command(gyrotc::app::add_calibrate_command, "calibrate",
