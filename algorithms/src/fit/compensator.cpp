@@ -7,10 +7,13 @@
 
 namespace gyrotc::fit {
 
-Compensator::Compensator(BiasModel model, double scale_mv_per_dps)
-    : model_(std::move(model)), scale_mv_per_dps_(scale_mv_per_dps) {
+Compensator::Compensator(BiasModel model, double scale_mv_per_dps, double die_lag_s)
+    : model_(std::move(model)), scale_mv_per_dps_(scale_mv_per_dps), die_lag_s_(die_lag_s) {
   if (!std::isfinite(scale_mv_per_dps) || !(scale_mv_per_dps > 0.0)) {
     throw std::invalid_argument("scale_mv_per_dps must be a positive number");
+  }
+  if (!std::isfinite(die_lag_s) || die_lag_s < 0.0) {
+    throw std::invalid_argument("die_lag_s must be zero or a positive number");
   }
 }
 

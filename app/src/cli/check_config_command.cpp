@@ -28,7 +28,7 @@ const char* stream_name(StreamKind kind) {
 void check_config(const std::string& path) {
   const DaemonConfig config = load_daemon_config(path);
   const CalibrationInUse calibration = load_calibration_in_use(config.calibration_file);
-  const fit::Compensator compensator(calibration.model, calibration.scale_mv_per_dps);
+  const fit::Compensator compensator(calibration.model, calibration.scale_mv_per_dps, calibration.die_lag_s);
   try {
     const Controller controller(config.controller, compensator);
     if (config.board.hal == HalKind::sim) model::validate(sim_plant_params(config.board));

@@ -489,9 +489,8 @@ void run_single(const FitOptions& o) {
                           f.errors.loo_rms / s,
                           nested_max,
                           nested_rms,
-                          p.accepted,
-                          o.die_lag_s > 0.0 ? std::optional<double>(o.die_lag_s) : std::nullopt};
-    save_calibration(f.model, o.out, s, src);
+                          p.accepted};
+    save_calibration(f.model, o.out, s, src, o.die_lag_s);
   }
   if (o.json) {
     ordered_json j{{"method", o.method},

@@ -139,6 +139,7 @@ DeviceResult probe_calibration(const std::string& file) {
       values["range_c"] = {c.model.t_min_c(), c.model.t_max_c()};
     }
     values["scale_mv_per_dps"] = c.scale_mv_per_dps;
+    values["die_lag_s"] = c.die_lag_s;
     return {"calibration", "ok", describe(c), values};
   } catch (const InputError& e) {
     return {"calibration", "error", e.what()};

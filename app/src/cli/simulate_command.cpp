@@ -295,9 +295,13 @@ void print_text(const nlohmann::json& j, const std::optional<std::string>& csv,
     std::snprintf(buf, sizeof buf, fmt, v.get<double>());
     return std::string(buf);
   };
-  std::printf("gyrotc simulate: profile %s, controller %s, calibration %s\n",
+  std::string die;
+  if (j.value("calibration_die_lag_s", 0.0) > 0.0) {
+    die = " (of the die, " + num(j["calibration_die_lag_s"], "%.1f") + " s behind the sensor)";
+  }
+  std::printf("gyrotc simulate: profile %s, controller %s, calibration %s%s\n",
               j["profile"].get<std::string>().c_str(), j["controller"].get<std::string>().c_str(),
-              j["calibration"].get<std::string>().c_str());
+              j["calibration"].get<std::string>().c_str(), die.c_str());
   std::printf("  simulated %s s in %s s wall (speedup %s x, %s Hz sampling)\n",
               num(j["simulated_s"], "%.0f").c_str(), num(j["wall_s"], "%.3f").c_str(),
               num(j["speedup"], "%.0f").c_str(), num(j["sample_rate_hz"], "%g").c_str());
@@ -407,6 +411,7 @@ void run(const SimulateOptions& o) {
     const Calibration c = read_calibration(calibration_path);
     model.emplace(c.model);
     setup.scale_mv_per_dps = c.scale_mv_per_dps;
+    setup.die_lag_s = c.die_lag_s;
     calibration_name = calibration_path;
   } else {
     model.emplace(fit::BiasModel::paper_reference());
@@ -438,6 +443,7 @@ void run(const SimulateOptions& o) {
     plot_path = o.plot;
   }
   nlohmann::json j = summary_json(o, calibration_name, result, wall_s);
+  j["calibration_die_lag_s"] = setup.die_lag_s;
   if (tune_experiment) {
     j["experiment"] = {{"ambient_c", o.ambient_c},
                        {"duration_s", result.rows.empty() ? 0.0 : result.rows.back().time_s},

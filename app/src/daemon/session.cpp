@@ -35,7 +35,7 @@ namespace gyrotc::app {
 namespace {
 
 std::unique_ptr<fit::Compensator> make_compensator(CalibrationInUse c) {
-  return std::make_unique<fit::Compensator>(std::move(c.model), c.scale_mv_per_dps);
+  return std::make_unique<fit::Compensator>(std::move(c.model), c.scale_mv_per_dps, c.die_lag_s);
 }
 
 double us(double s) { return s * 1e6; }
@@ -75,7 +75,7 @@ class FaultReporter {
       {kFlagAdcInvalid, "ADS1251 DRDY timeout or clipped sample: rate output invalid (DAC at mid-scale)"},
       {kFlagAdcStalled, "no ADS1251 sample for failsafe.adc_stall_s (DRDY stopped or every read fails): TEC off "
                         "until samples return"},
-      {kFlagModelClamped, "casing reading outside the calibration's range: compensated at its end"},
+      {kFlagModelClamped, "casing (or die) temperature outside the calibration's range: compensated at its end"},
   };
   static std::size_t index(std::uint32_t flag) { return static_cast<std::size_t>(__builtin_ctz(flag)); }
 

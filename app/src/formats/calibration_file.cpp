@@ -23,6 +23,9 @@ namespace {
 constexpr std::string_view kFormat = "gyrotc-calibration";
 constexpr std::int64_t kVersion = 1;
 constexpr double kSeedScaleMvPerDps = 8.774;  // seed Table 2 note
+// A die an hour behind its casing sensor is not a die: most likely a unit
+// mistaken (ms for s).
+constexpr double kMaxDieLagS = 3600.0;
 
 // Reads typed keys of one table; every error names file, line and full key.
 class Reader {
@@ -186,8 +189,8 @@ Calibration parse_calibration(std::string_view text, const std::string& name) {
                      std::to_string(e.source().begin.column) + ": " + std::string(e.description()));
   }
   const Reader top(root, "", name);
-  top.only({"format", "version", "kind", "range_c", "scale_mv_per_dps", "polynomial", "piecewise",
-            "bp_network", "spline", "source"});
+  top.only({"format", "version", "kind", "range_c", "scale_mv_per_dps", "die_lag_s", "polynomial",
+            "piecewise", "bp_network", "spline", "source"});
   if (top.text("format") != kFormat) {
     top.fail(top.get("format"), "format", "expected \"" + std::string(kFormat) + "\"");
   }
@@ -196,6 +199,10 @@ Calibration parse_calibration(std::string_view text, const std::string& name) {
   }
   const double scale = top.optional_number("scale_mv_per_dps").value_or(kSeedScaleMvPerDps);
   if (!(scale > 0.0)) top.fail(top.get("scale_mv_per_dps"), "scale_mv_per_dps", "must be positive");
+  const double die_lag = top.optional_number("die_lag_s").value_or(0.0);
+  if (!(die_lag >= 0.0 && die_lag <= kMaxDieLagS)) {
+    top.fail(top.get("die_lag_s"), "die_lag_s", "must be 0..3600 s (the die's lag behind the casing sensor)");
+  }
   const std::string kind = top.text("kind");
   if (kind != "polynomial" && kind != "piecewise" && kind != "bp_network" && kind != "spline" &&
       kind != "paper_reference") {
@@ -203,7 +210,7 @@ Calibration parse_calibration(std::string_view text, const std::string& name) {
              "expected \"polynomial\", \"piecewise\", \"spline\", \"bp_network\" or \"paper_reference\", got \"" +
                  kind + "\"");
   }
-  if (kind == "paper_reference") return Calibration{fit::BiasModel::paper_reference(), scale};
+  if (kind == "paper_reference") return Calibration{fit::BiasModel::paper_reference(), scale, die_lag};
 
   const std::vector<double> range = top.numbers("range_c");
   if (range.size() != 2 || !(range[0] < range[1])) {
@@ -212,7 +219,7 @@ Calibration parse_calibration(std::string_view text, const std::string& name) {
   if (kind == "polynomial") {
     const Reader r(top.table("polynomial"), "polynomial", name);
     fit::Polynomial p = read_polynomial(r, range[0], range[1]);
-    return Calibration{build(name, "polynomial", [&] { return fit::BiasModel::polynomial(p); }), scale};
+    return Calibration{build(name, "polynomial", [&] { return fit::BiasModel::polynomial(p); }), scale, die_lag};
   }
   if (kind == "piecewise") {
     const Reader r(top.table("piecewise"), "piecewise", name);
@@ -239,7 +246,7 @@ Calibration parse_calibration(std::string_view text, const std::string& name) {
       const double hi = i + 1 == segments.size() ? range[1] : pw.breakpoints_c[i];
       pw.segments.push_back(read_polynomial(s, lo, hi));
     }
-    return Calibration{build(name, "piecewise", [&] { return fit::BiasModel::piecewise(pw); }), scale};
+    return Calibration{build(name, "piecewise", [&] { return fit::BiasModel::piecewise(pw); }), scale, die_lag};
   }
   if (kind == "spline") {
     const Reader r(top.table("spline"), "spline", name);
@@ -263,7 +270,7 @@ Calibration parse_calibration(std::string_view text, const std::string& name) {
                                     std::to_string(r.numbers(key).size()));
       }
     }
-    return Calibration{build(name, "spline", [&] { return fit::BiasModel::spline(sp); }), scale};
+    return Calibration{build(name, "spline", [&] { return fit::BiasModel::spline(sp); }), scale, die_lag};
   }
   {  // kind == "bp_network"
     const Reader r(top.table("bp_network"), "bp_network", name);
@@ -294,7 +301,7 @@ Calibration parse_calibration(std::string_view text, const std::string& name) {
       layer.biases = l.numbers("biases");
       net.layers.push_back(std::move(layer));
     }
-    return Calibration{build(name, "bp_network", [&] { return fit::BiasModel::bp_network(net); }), scale};
+    return Calibration{build(name, "bp_network", [&] { return fit::BiasModel::bp_network(net); }), scale, die_lag};
   }
 }
 
@@ -310,7 +317,7 @@ Calibration read_calibration(const std::string& path) {
 fit::BiasModel load_calibration(const std::string& path) { return read_calibration(path).model; }
 
 std::string format_calibration(const fit::BiasModel& model, double scale_mv_per_dps,
-                               const CalibrationSource& source) {
+                               const CalibrationSource& source, double die_lag_s) {
   std::string s;
   s += "# gyrotc calibration: zero-rate output (mV) of the gyro against casing temperature.\n";
   s += "# Compensated rate = (gyro_mv - bias_mv(T)) / scale_mv_per_dps; outside range_c the\n";
@@ -321,6 +328,10 @@ std::string format_calibration(const fit::BiasModel& model, double scale_mv_per_
   s += "scale_mv_per_dps = " + format_number(scale_mv_per_dps) + "\n";
   if (model.kind() != fit::BiasModel::Kind::paper_reference) {
     s += "range_c = " + format_numbers({model.t_min_c(), model.t_max_c()}) + "\n";
+  }
+  if (die_lag_s > 0.0) {
+    s += "# T is the die's temperature: the casing sensor through a first-order lag of die_lag_s\n";
+    s += "die_lag_s = " + format_number(die_lag_s) + "\n";
   }
   if (!source.method.empty()) {
     s += "\n[source]\n";
@@ -335,10 +346,6 @@ std::string format_calibration(const fit::BiasModel& model, double scale_mv_per_
     if (source.nested_loo_max_abs_dps && source.nested_loo_rms_dps) {
       s += "nested_loo_max_abs_dps = " + format_number(*source.nested_loo_max_abs_dps) + "\n";
       s += "nested_loo_rms_dps = " + format_number(*source.nested_loo_rms_dps) + "\n";
-    }
-    if (source.die_lag_s) {
-      s += "# binned by the die's temperature: the casing sensor through a first-order lag\n";
-      s += "die_lag_s = " + format_number(*source.die_lag_s) + "\n";
     }
     if (!source.accepted.empty()) {
       s += "# record checks overridden with `gyrotc fit --accept`\n";
@@ -395,8 +402,8 @@ std::string format_calibration(const fit::BiasModel& model, double scale_mv_per_
 }
 
 void save_calibration(const fit::BiasModel& model, const std::string& path, double scale_mv_per_dps,
-                      const CalibrationSource& source) {
-  const std::string text = format_calibration(model, scale_mv_per_dps, source);
+                      const CalibrationSource& source, double die_lag_s) {
+  const std::string text = format_calibration(model, scale_mv_per_dps, source, die_lag_s);
   std::ofstream out(path, std::ios::binary | std::ios::trunc);
   if (!out) throw RuntimeFailure(path + ": cannot write: " + std::strerror(errno));
   out << text;

@@ -24,6 +24,7 @@ CalibrationInUse load_calibration_in_use(const std::string& file) {
   c.file = file;
   c.model = std::move(parsed.model);
   c.scale_mv_per_dps = parsed.scale_mv_per_dps;
+  c.die_lag_s = parsed.die_lag_s;
   c.sha256 = sha256_hex(text.str());
   return c;
 }
@@ -31,7 +32,12 @@ CalibrationInUse load_calibration_in_use(const std::string& file) {
 std::string describe(const CalibrationInUse& c) {
   char range[64];
   std::snprintf(range, sizeof range, "%g..%g C", c.model.t_min_c(), c.model.t_max_c());
-  const std::string what = std::string(c.model.kind_name()) + ", " + range;
+  std::string what = std::string(c.model.kind_name()) + ", " + range;
+  if (c.die_lag_s > 0.0) {
+    char die[64];
+    std::snprintf(die, sizeof die, " of the die, %.1f s behind the sensor", c.die_lag_s);
+    what += die;
+  }
   if (c.file.empty()) return "the seed's built-in reference model (" + what + ")";
   return c.file + ": " + what + ", sha256 " + c.sha256.substr(0, 16);
 }

@@ -99,7 +99,8 @@ SampleResult Controller::on_sample(const hal::AdcSample& sample, double now_s) n
   // The modelled bias only changes with the casing reading (about once a
   // second) or the model: evaluate it then, and subtract it from every sample.
   if (compensator != cached_compensator_ || !bias_cached_) {
-    const double temp_c = have_casing_ ? casing_c_ : std::numeric_limits<double>::quiet_NaN();
+    const double temp_c = have_casing_ ? die_.die_c() : std::numeric_limits<double>::quiet_NaN();
+    cached_temp_c_ = temp_c;
     const fit::Compensated c = compensator->compensate(0.0, temp_c);
     cached_compensator_ = compensator;
     cached_bias_mv_ = c.bias_mv;
@@ -153,12 +154,15 @@ void Controller::on_temperature(const hal::TemperatureReading& reading, double n
     drive_lo_a_ = std::numeric_limits<double>::infinity();
     drive_hi_a_ = -std::numeric_limits<double>::infinity();
   }
-  if (!have_casing_ || reading.temp_c != casing_c_) bias_cached_ = false;
   have_casing_ = true;
   casing_c_ = reading.temp_c;
   // A reading is as old as its measurement (the conversion's start), not
   // its hand-over: a conversion takes 750 ms, more behind the ambient's.
   casing_time_s_ = std::isfinite(reading.time_s) ? std::min(reading.time_s, now_s) : now_s;
+  // The model is evaluated at the die's temperature: the reading itself, or
+  // the reading through the calibration's die lag.
+  die_.update(casing_time_s_, reading.temp_c, compensator_.load(std::memory_order_acquire)->die_lag_s());
+  if (die_.die_c() != cached_temp_c_) bias_cached_ = false;
   if ((flags_ & kTempFaults) != 0) {
     const bool still_stuck = (flags_ & kFlagTempStuck) != 0 && reading.temp_c == stuck_value_c_;
     good_streak_ = still_stuck ? 0 : good_streak_ + 1;

@@ -282,7 +282,7 @@ SimulationResult run_simulation(const SimulationSetup& setup, const model::Chamb
   hal::SimBoard board(plant, setup.seed, options);
   if (profile.start_s() > 0.0) board.advance_to(profile.start_s());
 
-  const fit::Compensator compensator(*setup.calibration, setup.scale_mv_per_dps);
+  const fit::Compensator compensator(*setup.calibration, setup.scale_mv_per_dps, setup.die_lag_s);
   Controller controller(setup.controller, compensator);
   LockstepRunner runner(board, controller, profile, setup.lockstep);
 

@@ -100,3 +100,49 @@ TEST_CASE("die temperature: mismatched spans, times that go back and an infinite
                                     std::numeric_limits<double>::infinity()),
                   std::invalid_argument);
 }
+
+TEST_CASE("die temperature, one reading at a time: follows the lag's equation as the Controller feeds it",
+          "[calibrate][die_temperature]") {
+  DieTemperature die;
+  CHECK_FALSE(die.started());
+  std::vector<double> t, c, streamed;
+  double time = 0.0;
+  for (int i = 0; i < 300; ++i) {
+    time += (i % 5 == 2) ? 3.0 : 0.75;
+    t.push_back(time);
+    c.push_back(std::round((25.0 + 6.0 * std::sin(time / 40.0)) * 16.0) / 16.0);
+    die.update(t.back(), c.back(), 60.0);
+    streamed.push_back(die.die_c());
+  }
+  CHECK(die.started());
+  CHECK(streamed.front() == c.front());
+  const std::vector<double> expected = integrated(t, c, 60.0);
+  double worst = 0.0;
+  for (std::size_t i = 0; i < t.size(); ++i) worst = std::max(worst, std::fabs(streamed[i] - expected[i]));
+  CHECK(worst < 1e-6);
+}
+
+TEST_CASE("die temperature, one reading at a time: no lag is the reading, and a lag set later starts from it",
+          "[calibrate][die_temperature]") {
+  DieTemperature die;
+  die.update(0.0, 20.0, 0.0);
+  die.update(1.0, 30.0, 0.0);
+  CHECK(die.die_c() == 30.0);
+  // From 30 C, the sensor steady: the die stays; then a ramp of 0.1 C/s read
+  // every second for 50 lags of 2 s: the die settles 0.2 C behind.
+  die.update(2.0, 30.0, 2.0);
+  CHECK(die.die_c() == 30.0);
+  for (int i = 1; i <= 100; ++i) die.update(2.0 + i, 30.0 + 0.1 * i, 2.0);
+  CHECK(die.die_c() == Approx(40.0 - 0.2).margin(1e-9));
+}
+
+TEST_CASE("die temperature, one reading at a time: a reading stamped before the last moves no time",
+          "[calibrate][die_temperature]") {
+  DieTemperature die;
+  die.update(10.0, 20.0, 30.0);
+  die.update(9.0, 40.0, 30.0);  // a late hand-over's stamp: no time passed, the die stays
+  CHECK(die.die_c() == 20.0);
+  die.update(11.0, 40.0, 30.0);
+  // One second on from the reading at 10 s: as if the sensor stood at 40 C the whole second.
+  CHECK(die.die_c() == Approx(40.0 - 20.0 * std::exp(-1.0 / 30.0)).epsilon(1e-12));
+}

@@ -139,3 +139,10 @@ TEST_CASE("the compensator flags temperatures outside the calibrated range") {
   CHECK(std::isnan(bad.rate_dps));
   CHECK_THROWS(Compensator{BiasModel::paper_reference(), 0.0});
 }
+
+TEST_CASE("the compensator keeps a calibration's die lag and refuses one that is not a lag") {
+  CHECK(Compensator{BiasModel::paper_reference()}.die_lag_s() == 0.0);
+  CHECK(Compensator(BiasModel::paper_reference(), 8.774, 42.0).die_lag_s() == 42.0);
+  CHECK_THROWS_AS(Compensator(BiasModel::paper_reference(), 8.774, -1.0), std::invalid_argument);
+  CHECK_THROWS_AS(Compensator(BiasModel::paper_reference(), 8.774, NAN), std::invalid_argument);
+}

@@ -84,6 +84,29 @@ TEST_CASE("the shipped default calibration is what fit --method auto makes of Ta
   for (double x = -40.0; x <= 80.0; x += 0.5) CHECK(m.bias_mv(x) == Approx(best.model.bias_mv(x)).margin(1e-9));
 }
 
+TEST_CASE("a calibration of the die keeps its lag through a save and load, and a file without one has none") {
+  Polynomial p;
+  p.coefficients_mv = {80.0, -0.5};
+  p.t_min_c = -10.0;
+  p.t_max_c = 70.0;
+  const std::string text = gyrotc::app::format_calibration(BiasModel::polynomial(p), 8.774, {}, 42.25);
+  CHECK(parse_calibration(text, "die.toml").die_lag_s == 42.25);
+  CHECK(parse_calibration(gyrotc::app::format_calibration(BiasModel::polynomial(p), 8.774), "sensor.toml").die_lag_s ==
+        0.0);
+}
+
+TEST_CASE("a die lag that is negative or over an hour is refused, naming the line") {
+  auto error_of = [](const std::string& lag) {
+    return gyrotc::test::input_error_of([&] {
+      parse_calibration(with_header("kind = \"paper_reference\"\ndie_lag_s = " + lag + "\n"), "cal.toml");
+    });
+  };
+  CHECK_THAT(error_of("-1"), Catch::Contains("cal.toml:4: key 'die_lag_s': must be 0..3600 s"));
+  CHECK_THAT(error_of("42000"), Catch::Contains("cal.toml:4: key 'die_lag_s'"));
+  CHECK_THAT(error_of("\"40\""), Catch::Contains("key 'die_lag_s': expected a number"));
+  CHECK(parse_calibration(with_header("kind = \"paper_reference\"\ndie_lag_s = 3600\n"), "cal.toml").die_lag_s == 3600.0);
+}
+
 TEST_CASE("calibration errors name the file, line and key") {
   auto error_of = [](const std::string& text) {
     return gyrotc::test::input_error_of([&] { parse_calibration(text, "cal.toml"); });

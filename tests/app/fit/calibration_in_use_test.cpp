@@ -37,6 +37,15 @@ TEST_CASE("a calibration file is described by its path, model, range and the sta
   CHECK(describe(c) == file + ": " + std::string(c.model.kind_name()) + ", -40..80 C, sha256 " + c.sha256.substr(0, 16));
 }
 
+TEST_CASE("a calibration of the die is loaded with its lag and described as such") {
+  const std::string file = gyrotc::test::scratch_dir() + "/die-calibration.toml";
+  std::ofstream(file) << "format = \"gyrotc-calibration\"\nversion = 1\nkind = \"paper_reference\"\ndie_lag_s = 42.3\n";
+  const CalibrationInUse c = load_calibration_in_use(file);
+  CHECK(c.die_lag_s == 42.3);
+  CHECK(describe(c) == file + ": paper_reference, -40..80 C of the die, 42.3 s behind the sensor, sha256 " +
+                           c.sha256.substr(0, 16));
+}
+
 TEST_CASE("a missing calibration file is an error naming it, never the built-in model") {
   const std::string file = gyrotc::test::scratch_dir() + "/missing-calibration.toml";
   CHECK_THROWS_WITH(load_calibration_in_use(file), Catch::Contains(file + ": cannot open the calibration file"));

@@ -12,6 +12,27 @@
 
 namespace gyrotc::calibrate {
 
+// The same estimate, one reading at a time: what the Controller compensates
+// at on the board, so that a model fitted against the die's temperature is
+// evaluated at the die's temperature in service too. update() does not
+// allocate or throw.
+class DieTemperature {
+ public:
+  // A reading taken at time_s (not before the last one; an earlier time is
+  // taken as the last one's). The first reading starts the die at it; each
+  // later one moves the die as if the sensor went linearly from the last
+  // reading to this one. lag_s <= 0 (or not finite): the die is the reading.
+  void update(double time_s, double sensor_c, double lag_s) noexcept;
+  bool started() const noexcept { return started_; }
+  double die_c() const noexcept { return die_c_; }  // meaningful once started()
+
+ private:
+  bool started_ = false;
+  double last_time_s_ = 0.0;
+  double last_sensor_c_ = 0.0;
+  double die_c_ = 0.0;
+};
+
 // The sensor's readings through a first-order lag of lag_s, the sensor taken
 // as moving linearly between readings (exact for a ramp). The die starts at
 // the first finite reading (a unit that has sat at the ambient). A row

@@ -26,13 +26,13 @@ struct CalibrationSource {
   std::optional<double> nested_loo_rms_dps;
   // The record checks `fit --accept` overrode, "check: reason" each.
   std::vector<std::string> accepted;
-  // A recording binned by the die's temperature: the sensor through this lag.
-  std::optional<double> die_lag_s;
 };
 
 struct Calibration {
   fit::BiasModel model;
   double scale_mv_per_dps;  // key scale_mv_per_dps; 8.774 (seed Table 2) when absent
+  // key die_lag_s; 0 when absent: the model is of the casing sensor's reading
+  double die_lag_s = 0.0;
 };
 
 // Calibration file (TOML), version 1:
@@ -40,6 +40,10 @@ struct Calibration {
 //   kind = "polynomial" | "piecewise" | "spline" | "bp_network" | "paper_reference"
 //   range_c = [t_min, t_max]          (not for paper_reference)
 //   scale_mv_per_dps = 8.774          (optional)
+//   die_lag_s = 42.2                  (optional, 0..3600 s; 0 when absent) the model is of the
+//       die's temperature, the casing sensor through a first-order lag of this length (a
+//       record binned by the die, `fit --die-lag-s`, `calibrate`): the Controller compensates
+//       at the die's temperature estimated so (calibrate/die_temperature.hpp DieTemperature)
 //   [polynomial] center_c, scale_c, coefficients_mv = [a0, a1, ...]
 //   [piecewise] breakpoints_c = [...]; [[piecewise.segment]] center_c, scale_c, coefficients_mv
 //   [spline] knots_c = [x0, x1, ...] (ascending, inside range_c), values_mv = [y0, ...],
@@ -57,9 +61,10 @@ fit::BiasModel load_calibration(const std::string& path);
 
 // The file's text; numbers are written so that they read back bit-for-bit.
 std::string format_calibration(const fit::BiasModel& model, double scale_mv_per_dps,
-                               const CalibrationSource& source = {});
+                               const CalibrationSource& source = {}, double die_lag_s = 0.0);
 // Writes format_calibration() to path; RuntimeFailure when the file cannot be written.
 void save_calibration(const fit::BiasModel& model, const std::string& path,
-                      double scale_mv_per_dps = 8.774, const CalibrationSource& source = {});
+                      double scale_mv_per_dps = 8.774, const CalibrationSource& source = {},
+                      double die_lag_s = 0.0);
 
 }  // namespace gyrotc::app

@@ -13,6 +13,7 @@ struct CalibrationInUse {
   std::string file;  // as configured (absolute); "" = the seed's built-in reference model
   fit::BiasModel model = fit::BiasModel::paper_reference();
   double scale_mv_per_dps = 8.774;
+  double die_lag_s = 0.0;  // the file's die_lag_s: compensated at the die's estimated temperature
   std::string sha256;  // of the file's bytes ("" for the built-in model)
 };
 
@@ -22,7 +23,8 @@ struct CalibrationInUse {
 CalibrationInUse load_calibration_in_use(const std::string& file);
 
 // "/etc/gyrotc/calibration.toml: piecewise, -40..80 C, sha256 1f2e..." (the
-// first 16 hex digits), or "the seed's built-in reference model (...)".
+// first 16 hex digits; "of the die, 42.2 s behind the sensor" after the range
+// when die_lag_s > 0), or "the seed's built-in reference model (...)".
 std::string describe(const CalibrationInUse& calibration);
 
 }  // namespace gyrotc::app

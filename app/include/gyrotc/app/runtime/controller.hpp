@@ -2,8 +2,10 @@
 
 #include <atomic>
 #include <cstdint>
+#include <limits>
 #include <string>
 
+#include "gyrotc/algorithms/calibrate/die_temperature.hpp"
 #include "gyrotc/algorithms/control/pid.hpp"
 #include "gyrotc/algorithms/control/tec_law.hpp"
 #include "gyrotc/algorithms/control/tec_program.hpp"
@@ -115,7 +117,9 @@ class Controller {
   // The Compensator is not owned: it must outlive its use (see set_compensator).
   Controller(const ControllerConfig& config, const fit::Compensator& compensator);
 
-  // Every ADC sample: compensation at the last valid casing temperature.
+  // Every ADC sample: compensation at the last valid casing temperature, or,
+  // with a calibration of the die (fit::Compensator::die_lag_s), at the die's
+  // temperature estimated from the casing readings through that lag.
   SampleResult on_sample(const hal::AdcSample& sample, double now_s) noexcept;
   // The ADC did not deliver in time: the rate output is invalid until the
   // next good sample.
@@ -166,6 +170,11 @@ class Controller {
   // The setpoint in use (ramping with setpoint_ramp_c_per_s).
   double active_setpoint_c() const noexcept { return active_setpoint_c_; }
   double last_casing_c() const noexcept { return casing_c_; }
+  // The temperature the model is evaluated at: the last casing reading, or
+  // the die's estimate (NaN before the first reading).
+  double compensation_c() const noexcept {
+    return have_casing_ ? die_.die_c() : std::numeric_limits<double>::quiet_NaN();
+  }
   const TecCommand& last_command() const noexcept { return command_; }
   const ControllerConfig& config() const noexcept { return config_; }
 
@@ -204,8 +213,12 @@ class Controller {
   double drive_lo_a_ = 0.0;
   double drive_hi_a_ = 0.0;
 
-  // Compensation cache: the bias at the current reading and model.
+  // The die's temperature from the casing readings through the compensator's
+  // die lag (the readings themselves when it is 0).
+  calibrate::DieTemperature die_;
+  // Compensation cache: the bias at the current temperature and model.
   const fit::Compensator* cached_compensator_ = nullptr;
+  double cached_temp_c_ = std::numeric_limits<double>::quiet_NaN();
   bool bias_cached_ = false;
   double cached_bias_mv_ = 0.0;
   bool cached_clamped_ = false;

@@ -174,6 +174,7 @@ struct SimulationSetup {
   ControllerConfig controller;
   const fit::BiasModel* calibration = nullptr;  // required
   double scale_mv_per_dps = 8.774;              // seed Table 2 note
+  double die_lag_s = 0.0;                       // the calibration's (fit::Compensator)
   double sample_rate_hz = 1000.0;
   LockstepOptions lockstep;
   LockstepRunner::SampleHook on_sample;  // optional, see LockstepRunner::on_sample
