@@ -85,7 +85,7 @@ LagAndHysteresis separate(std::span<const double> sensor_c, std::span<const doub
   const double spread = std::sqrt(std::max(0.0, square / static_cast<double>(m) - mean * mean));
   if (!(rms > 0.0) || spread < options.min_slope_spread * rms) {
     out.why_not = "the curve's slope hardly changes over the range swept, so the die's lag and a hysteresis split "
-                  "the passes alike (a second sweep at another rate would separate them)";
+                  "the passes alike (where the casing starts, stops and turns the record may still show the lag)";
     return out;
   }
   // Row by row, in time: y = level of the bin + sign (lag column + hysteresis) / 2.

@@ -63,14 +63,28 @@ nlohmann::json up_down_json(const calibrate::UpDownDifference& d) {
           {"separation", separation}, {"bins", bins}};
 }
 
+// The lag the whole record shows (calibrate/die_lag_from_record.hpp).
+nlohmann::json record_lag_json(const calibrate::RecordLag& r) {
+  nlohmann::json j = {{"found", r.found}};
+  if (std::isfinite(r.die_lag_s)) {
+    j["die_lag_s"] = r.die_lag_s;
+    j["die_lag_s_std"] = r.die_lag_s_std;
+    j["split_mv"] = r.split_mv;
+  }
+  if (!r.found) j["why_not"] = r.why_not;
+  return j;
+}
+
 // The die's lag the record is binned with: the one asked for, else the one
-// the passes' split measures, else none (the sensor's reading).
-enum class LagFrom : std::uint8_t { given, measured, none };
+// the passes' split measures, else the one the whole record shows where the
+// passes cannot (a nearly straight curve), else none (the sensor's reading).
+enum class LagFrom : std::uint8_t { given, measured, record, none };
 
 const char* to_string(LagFrom from) noexcept {
   switch (from) {
     case LagFrom::given: return "given";
     case LagFrom::measured: return "measured";
+    case LagFrom::record: return "record";
     case LagFrom::none: return "none";
   }
   return "?";
@@ -81,9 +95,11 @@ struct DieLag {
   LagFrom from = LagFrom::none;
 };
 
-DieLag die_lag_for(const CalibrateOptions& o, const calibrate::UpDownDifference& split) {
+DieLag die_lag_for(const CalibrateOptions& o, const SweepLags& lags) {
   if (o.die_lag_s) return {*o.die_lag_s, LagFrom::given};
-  if (split.separation.separated) return {std::max(0.0, split.separation.die_lag_s), LagFrom::measured};
+  const calibrate::LagAndHysteresis& s = lags.passes.separation;
+  if (s.separated) return {std::max(0.0, s.die_lag_s), LagFrom::measured};
+  if (lags.record.found) return {lags.record.die_lag_s, LagFrom::record};
   return {};
 }
 
@@ -92,21 +108,27 @@ void print_die_lag(const DieLag& lag) {
     std::printf("die: binned by the die's temperature, the casing sensor through the %.1f s lag the up/down passes "
                 "measure (below; --die-lag-s to set it)\n",
                 lag.lag_s);
+  } else if (lag.from == LagFrom::record) {
+    std::printf("die: binned by the die's temperature, the casing sensor through the %.1f s lag the whole record "
+                "shows where the casing starts, stops and turns (the passes cannot measure it: below; --die-lag-s to "
+                "set it)\n",
+                lag.lag_s);
   } else if (lag.from == LagFrom::given && lag.lag_s > 0.0) {
     std::printf("die: binned by the die's temperature, the casing sensor through a %.1f s lag (--die-lag-s)\n",
                 lag.lag_s);
   } else if (lag.from == LagFrom::given) {
     std::printf("die: binned by the casing sensor's reading (--die-lag-s 0)\n");
   } else {
-    std::printf("die: binned by the casing sensor's reading: the up/down passes do not measure the die's lag "
-                "(below; --die-lag-s to give it)\n");
+    std::printf("die: binned by the casing sensor's reading: neither the up/down passes (below) nor the whole "
+                "record measure the die's lag (--die-lag-s to give it)\n");
   }
 }
 
 // The record's range against the service range, then the fit.
 void fit_and_check(const std::string& record, const CalibrateOptions& o) {
-  const calibrate::UpDownDifference split = read_up_down_difference(record);
-  const DieLag lag = die_lag_for(o, split);
+  const SweepLags lags = read_sweep_lags(record);
+  const calibrate::UpDownDifference& split = lags.passes;
+  const DieLag lag = die_lag_for(o, lags);
   const RecordRange range = read_record_range(record, lag.lag_s);
   const std::string gap = service_range_gap(range);
   if (!gap.empty()) {
@@ -115,7 +137,9 @@ void fit_and_check(const std::string& record, const CalibrateOptions& o) {
   }
   if (!o.json) print_die_lag(lag);
   fit_record_auto(record, lag.lag_s, o.out, o.plot, o.json,
-                  {{"up_down", up_down_json(split)}, {"die_lag_from", to_string(lag.from)}});
+                  {{"up_down", up_down_json(split)},
+                   {"record_lag", record_lag_json(lags.record)},
+                   {"die_lag_from", to_string(lag.from)}});
   if (o.json) return;
   if (split.bins.empty()) {
     std::printf("up/down: no temperature crossed both ways (not a self-calibration sweep?)\n");
@@ -130,6 +154,14 @@ void fit_and_check(const std::string& record, const CalibrateOptions& o) {
   const calibrate::LagAndHysteresis& s = split.separation;
   if (!s.separated) {
     std::printf("up/down: the die's lag and a hysteresis not told apart: %s\n", s.why_not.c_str());
+    const calibrate::RecordLag& r = lags.record;
+    if (r.found) {
+      std::printf("record: the die lags the casing sensor by %.1f +/- %.1f s, as the gyro follows where the casing "
+                  "starts, stops and turns (a split of %.3f mV beside it)\n",
+                  r.die_lag_s, r.die_lag_s_std, r.split_mv);
+    } else {
+      std::printf("record: no die's lag found where the casing starts, stops and turns: %s\n", r.why_not.c_str());
+    }
     return;
   }
   std::printf("up/down: the die lags the casing sensor by %.1f +/- %.1f s; a split of %.3f +/- %.3f mV (%.4f deg/s) "

@@ -65,7 +65,7 @@ std::string service_range_gap(const RecordRange& r) {
   return "";
 }
 
-calibrate::UpDownDifference read_up_down_difference(const std::string& path) {
+SweepLags read_sweep_lags(const std::string& path) {
   const CsvTable table = CsvTable::read(path);
   for (const char* column : {"time_s", "sensor_c", "gyro_mv"}) {
     if (!table.has(column)) throw InputError(path + ": missing column '" + column + "' (a board record has it)");
@@ -74,7 +74,8 @@ calibrate::UpDownDifference read_up_down_difference(const std::string& path) {
   const std::vector<double> time_s = table.numbers("time_s");
   const std::vector<double> sensor_c = table.numbers_or_nan("sensor_c");
   const std::vector<double> gyro_mv = table.numbers_or_nan("gyro_mv");
-  return calibrate::up_down_difference(time_s, sensor_c, gyro_mv);
+  return {calibrate::up_down_difference(time_s, sensor_c, gyro_mv),
+          calibrate::die_lag_from_record(time_s, sensor_c, gyro_mv)};
 }
 
 }  // namespace gyrotc::app

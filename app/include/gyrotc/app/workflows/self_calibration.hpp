@@ -2,6 +2,7 @@
 
 #include <string>
 
+#include "gyrotc/algorithms/calibrate/die_lag_from_record.hpp"
 #include "gyrotc/algorithms/calibrate/up_down_difference.hpp"
 
 // What `gyrotc calibrate` does around the sweep (issue 30): whether a
@@ -25,8 +26,14 @@ RecordRange read_record_range(const std::string& path, double die_lag_s = 0.0);
 // unit in service warms from one to the other); else why not, one clause.
 std::string service_range_gap(const RecordRange& r);
 
-// The upward and downward passes of a sweep record compared (time_s,
-// sensor_c, gyro_mv; InputError naming the file and the column missing).
-calibrate::UpDownDifference read_up_down_difference(const std::string& path);
+// What a sweep record tells of the die's lag (time_s, sensor_c, gyro_mv;
+// InputError naming the file and the column missing): the upward and
+// downward passes compared, and the lag the whole record shows (for where
+// the passes cannot tell it from a hysteresis).
+struct SweepLags {
+  calibrate::UpDownDifference passes;
+  calibrate::RecordLag record;
+};
+SweepLags read_sweep_lags(const std::string& path);
 
 }  // namespace gyrotc::app
