@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <stdexcept>
 #include <vector>
 
@@ -14,8 +15,7 @@
 namespace gyrotc::calibrate {
 namespace {
 
-// Runs of consecutive usable rows moving the same way, averaged into one
-// row of the fit.
+// A run of consecutive usable rows, averaged into one row of the fit.
 struct Chunk {
   std::size_t from = 0;  // rows [from, to)
   std::size_t to = 0;
@@ -214,8 +214,10 @@ RecordLag die_lag_from_record(std::span<const double> time_s, std::span<const do
     return out;
   }
   if (lag < options.min_lag_s || lag < options.min_z * se) {
-    out.why_not = "no lag beyond the noise: " + std::to_string(lag).substr(0, 6) + " +/- " +
-                  std::to_string(se).substr(0, 6) + " s";
+    char what[96];
+    std::snprintf(what, sizeof what, "no lag beyond the noise: %.1f +/- %.1f s (under %.0f s or %.0f standard errors)",
+                  lag, se, options.min_lag_s, options.min_z);
+    out.why_not = what;
     return out;
   }
   out.found = true;

@@ -246,11 +246,12 @@ void add_calibrate_command(CLI::App& app) {
       "casing from 12 C below the ambient to 12 C above the setpoint (never within 5 C of [failsafe]\n"
       "over_temp_c; an end the stage cannot reach at this ambient is where it stalls) and back, at 0.6 C/min,\n"
       "every temperature crossed once each way, each end held until the gyro's output settles (at most 4 h\n"
-      "at 20 C). The split between the two passes measures the die's lag behind the casing sensor; the\n"
-      "record is binned by the die's temperature so estimated and fitted as `gyrotc fit --method auto` fits\n"
-      "(each 1 C bin held out with the bins within 2 C of it, which share the gyro's bias wander), and the\n"
-      "calibration file written. Refused when the range reached does not cover the ambient of the run up\n"
-      "to the setpoint.\n"
+      "at 20 C). The split between the two passes measures the die's lag behind the casing sensor (on a\n"
+      "nearly straight curve, the whole record's starts, stops and turns do); the record is binned by the\n"
+      "die's temperature so estimated and fitted as `gyrotc fit --method auto` fits (each 1 C bin held out\n"
+      "with the bins within 2 C of it, which share the gyro's bias wander), and the calibration file\n"
+      "written with the lag, at which the unit then compensates. Refused when the range reached does not\n"
+      "cover the ambient of the run up to the setpoint.\n"
       "On the board: --config (the service stopped: the run holds the board; every fail-safe on, safe-off on\n"
       "any signal). Without hardware: --data, the record of `gyrotc simulate --profile selfcal --out DIR`.");
   cmd->add_option("-c,--config", o->config,
@@ -264,7 +265,8 @@ void add_calibrate_command(CLI::App& app) {
   cmd->add_option("--die-lag-s", o->die_lag_s,
                   "the die's lag behind the casing sensor, s, to bin the record by the die's temperature with\n"
                   "(default: as the sweep's up/down passes measure it; where they cannot, a nearly straight curve,\n"
-                  "the sensor's reading; 0: the sensor's reading)");
+                  "as the whole record shows it; where neither does, the sensor's reading; 0: the sensor's reading).\n"
+                  "The calibration file keeps the lag (die_lag_s): the unit compensates at the die's temperature");
   cmd->add_option("--record", o->record, "--config: where the sweep's record goes (default: OUT.record.csv)");
   cmd->add_flag("--install", o->install,
                 "put the calibration in place of --config's [calibration] file; a daemon running on that\n"

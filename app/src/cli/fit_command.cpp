@@ -755,7 +755,8 @@ void add_fit_command(CLI::App& app) {
   cmd->add_option("--die-lag-s", opts->die_lag_s,
                   "Time-series input: bin each sample by the die's temperature, the sensor through a\n"
                   "first-order lag of this many seconds, instead of the sensor's reading (`gyrotc calibrate`\n"
-                  "measures the lag from its sweep; 0: the sensor)")
+                  "measures the lag from its sweep; 0: the sensor). The calibration file keeps it (die_lag_s),\n"
+                  "and the unit compensates at the die's temperature estimated so")
       ->capture_default_str();
   cmd->add_option("--accept", opts->accept,
                   "Time-series input: fit despite these refusals, each a judgement call (the calibration\n"
