@@ -74,8 +74,15 @@ SweepLags read_sweep_lags(const std::string& path) {
   const std::vector<double> time_s = table.numbers("time_s");
   const std::vector<double> sensor_c = table.numbers_or_nan("sensor_c");
   const std::vector<double> gyro_mv = table.numbers_or_nan("gyro_mv");
-  return {calibrate::up_down_difference(time_s, sensor_c, gyro_mv),
-          calibrate::die_lag_from_record(time_s, sensor_c, gyro_mv)};
+  SweepLags lags{calibrate::up_down_difference(time_s, sensor_c, gyro_mv), {}};
+  // The record's lag is the fall-back: a search over lags that costs more
+  // than the passes' fit, not spent where that measured the lag.
+  if (lags.passes.separation.separated) {
+    lags.record.why_not = "not read: the up/down passes measure the lag";
+  } else {
+    lags.record = calibrate::die_lag_from_record(time_s, sensor_c, gyro_mv);
+  }
+  return lags;
 }
 
 }  // namespace gyrotc::app

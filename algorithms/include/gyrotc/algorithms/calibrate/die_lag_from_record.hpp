@@ -41,9 +41,9 @@ struct RecordLagOptions {
   // A lag within this many standard errors of 0 is not found: the record
   // does not show it. Nor is one shorter than min_lag_s: at the search's
   // lower end the estimate is one-sided, and the DS18B20's steps alone read
-  // as a lag of a few seconds (on the test's records with no lag: 1.2-4.5 s,
-  // standard errors too small by 2-3x); binning by such a lag or by none is
-  // the same.
+  // as a lag of a few seconds (on 40 of the test's records with no lag: 1.2-4.5 s
+  // on 37, 7.9-12 s on 3, rms z 2.4-3.5); binning by such a lag or by none
+  // is nearly the same.
   double min_z = 3.0;
   double min_lag_s = 5.0;
 };

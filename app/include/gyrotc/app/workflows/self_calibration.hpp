@@ -28,8 +28,9 @@ std::string service_range_gap(const RecordRange& r);
 
 // What a sweep record tells of the die's lag (time_s, sensor_c, gyro_mv;
 // InputError naming the file and the column missing): the upward and
-// downward passes compared, and the lag the whole record shows (for where
-// the passes cannot tell it from a hysteresis).
+// downward passes compared, and, only where they cannot tell the lag from a
+// hysteresis, the lag the whole record shows (else record.found is false,
+// why_not "not read: ...").
 struct SweepLags {
   calibrate::UpDownDifference passes;
   calibrate::RecordLag record;
