@@ -4,6 +4,8 @@
 #include <array>
 #include <cmath>
 #include <limits>
+#include <optional>
+#include <utility>
 #include <vector>
 
 namespace gyrotc::tune {
@@ -47,7 +49,7 @@ double expected_lagged_sum(const Eigen::MatrixXd& q, Eigen::Index lag, double ga
 
 }  // namespace
 
-ResidualNoise fit_residual_noise(const Eigen::MatrixXd& jacobian, const Eigen::VectorXd& residual) {
+ResidualNoise fit_residual_noise(const Eigen::MatrixXd& jacobian, const Eigen::VectorXd& residual, NoiseParts parts) {
   const Eigen::Index n = jacobian.rows();
   const Eigen::Index k = jacobian.cols();
   // An orthonormal basis of the Jacobian's columns (scaled first: the
@@ -80,9 +82,10 @@ ResidualNoise fit_residual_noise(const Eigen::MatrixXd& jacobian, const Eigen::V
     }
   }
 
-  ResidualNoise best;
-  double best_cost = std::numeric_limits<double>::infinity();
-  // Time constants from 1 row to the record's length, 1.25x apart.
+  // The first-order part's expected sums for time constants from 1 row to
+  // the record's length, 1.25x apart.
+  std::vector<double> taus;
+  std::vector<std::vector<double>> slows;
   for (double tau = 1.0; tau <= static_cast<double>(n); tau *= 1.25) {
     const double phi = std::exp(-1.0 / tau);
     const Eigen::MatrixXd cq = apply_first_order(q, phi);
@@ -91,36 +94,57 @@ ResidualNoise fit_residual_noise(const Eigen::MatrixXd& jacobian, const Eigen::V
     for (std::size_t i = 0; i < lags.size(); ++i) {
       slow.push_back(expected_lagged_sum(q, lags[i], std::pow(phi, static_cast<double>(lags[i])), cq, qcq, qsq[i]));
     }
-    // Nonnegative least squares in two unknowns: the unconstrained solution,
-    // else the better of the two one-term fits.
-    double ww = 0.0, ws = 0.0, ss = 0.0, wo = 0.0, so = 0.0;
-    for (std::size_t i = 0; i < lags.size(); ++i) {
-      ww += white[i] * white[i];
-      ws += white[i] * slow[i];
-      ss += slow[i] * slow[i];
-      wo += white[i] * observed[i];
-      so += slow[i] * observed[i];
-    }
-    auto cost = [&](double w, double s) {
-      double c = 0.0;
-      for (std::size_t i = 0; i < lags.size(); ++i) c += std::pow(observed[i] - w * white[i] - s * slow[i], 2);
-      return c;
-    };
-    const double det = ww * ss - ws * ws;
-    const std::array<std::array<double, 2>, 3> candidates{{
-        {wo / ww, 0.0},
-        {0.0, so / ss},
-        det > 0.0 ? std::array<double, 2>{(wo * ss - so * ws) / det, (so * ww - wo * ws) / det}
-                  : std::array<double, 2>{-1.0, -1.0},  // no joint solution: left out below
-    }};
-    for (const auto& [w, s] : candidates) {
-      if (w < 0.0 || s < 0.0) continue;
-      const double c = cost(w, s);
-      if (c < best_cost) {
-        best_cost = c;
-        best = {w, s, tau};
+    taus.push_back(tau);
+    slows.push_back(std::move(slow));
+  }
+
+  // Nonnegative least squares over the columns (white, a part at taus[a],
+  // optionally one at taus[b]): each subset of the columns solved
+  // unconstrained, the best whose variances are all >= 0 kept.
+  const auto m = static_cast<Eigen::Index>(lags.size());
+  const Eigen::Map<const Eigen::VectorXd> y(observed.data(), m);
+  ResidualNoise best;
+  double best_cost = std::numeric_limits<double>::infinity();
+  auto consider = [&](std::size_t a, std::optional<std::size_t> b) {
+    const std::array<const std::vector<double>*, 3> columns{&white, &slows[a], b ? &slows[*b] : nullptr};
+    const int count = b ? 3 : 2;
+    for (int subset = 1; subset < (1 << count); ++subset) {
+      std::vector<int> used;
+      for (int c = 0; c < count; ++c) {
+        if (subset & (1 << c)) used.push_back(c);
+      }
+      Eigen::MatrixXd x(m, static_cast<Eigen::Index>(used.size()));
+      for (Eigen::Index c = 0; c < x.cols(); ++c) {
+        x.col(c) = Eigen::Map<const Eigen::VectorXd>(columns[static_cast<std::size_t>(used[static_cast<std::size_t>(c)])]->data(), m);
+      }
+      const Eigen::VectorXd variance = x.colPivHouseholderQr().solve(y);
+      if (!variance.allFinite() || (variance.array() < 0.0).any()) continue;
+      const double cost = (y - x * variance).squaredNorm();
+      if (!(cost < best_cost)) continue;
+      best_cost = cost;
+      best = {};
+      for (Eigen::Index c = 0; c < x.cols(); ++c) {
+        switch (used[static_cast<std::size_t>(c)]) {
+          case 0: best.white_var = variance(c); break;
+          case 1: best.slow_var = variance(c); best.slow_tau_rows = taus[a]; break;
+          default: best.slower_var = variance(c); best.slower_tau_rows = taus[*b]; break;
+        }
       }
     }
+  };
+  for (std::size_t a = 0; a < taus.size(); ++a) {
+    if (parts == NoiseParts::one) {
+      consider(a, std::nullopt);
+      continue;
+    }
+    // 1.25^2 apart at least: neighbours of the grid are nearly one column.
+    for (std::size_t b = a + 2; b < taus.size(); ++b) consider(a, b);
+  }
+  // A second part that came out 0 leaves the fit's one part as the first.
+  if (best.slow_var == 0.0 && best.slower_var > 0.0) {
+    std::swap(best.slow_var, best.slower_var);
+    std::swap(best.slow_tau_rows, best.slower_tau_rows);
+    best.slower_tau_rows = 0.0;
   }
   return best;
 }
@@ -131,17 +155,20 @@ Eigen::MatrixXd noise_covariance(const Eigen::MatrixXd& jacobian, const Eigen::M
   // the parameters' scales differ by orders of magnitude: with G = J (J'J)^-1
   // and R = L L' (L the first-order filter from white noise,
   // x_t = phi x_{t-1} + sqrt(1 - phi^2) e_t), the sandwich is
-  // white G'G + slow (L'G)'(L'G).
+  // white G'G + slow (L'G)'(L'G) (+ the same for the slower part).
   const Eigen::MatrixXd g = jacobian * inverse_normal;
   Eigen::MatrixXd covariance = noise.white_var * (g.transpose() * g);
-  if (noise.slow_var > 0.0 && noise.slow_tau_rows > 0.0) {
-    const double phi = std::exp(-1.0 / noise.slow_tau_rows);
+  auto add_first_order = [&](double var, double tau_rows) {
+    if (!(var > 0.0 && tau_rows > 0.0)) return;
+    const double phi = std::exp(-1.0 / tau_rows);
     const Eigen::Index n = g.rows();
     Eigen::MatrixXd h = g;  // L'G: a backward filter, every row but the first scaled
     for (Eigen::Index t = n - 2; t >= 0; --t) h.row(t) += phi * h.row(t + 1);
     h.bottomRows(n - 1) *= std::sqrt(1.0 - phi * phi);
-    covariance += noise.slow_var * (h.transpose() * h);
-  }
+    covariance += var * (h.transpose() * h);
+  };
+  add_first_order(noise.slow_var, noise.slow_tau_rows);
+  add_first_order(noise.slower_var, noise.slower_tau_rows);
   return covariance;
 }
 

@@ -69,8 +69,12 @@ void print_text(const nlohmann::json& j, const std::string& source, const std::s
               fit["rms_c"].get<double>(), fit["quantisation_rms_c"].get<double>(), fit["max_abs_c"].get<double>(),
               fit["r_squared"].get<double>(), fit["lag1_autocorrelation"].get<double>(),
               fit["ljung_box_p"].get<double>());
-  std::printf("  residual noise the standard errors assume: white %.4f C + %.4f C with a %.0f s time constant\n",
+  std::printf("  residual noise the standard errors assume: white %.4f C + %.4f C with a %.0f s time constant",
               fit["noise_white_c"].get<double>(), fit["noise_slow_c"].get<double>(), fit["noise_slow_tau_s"].get<double>());
+  if (fit["noise_slower_c"].get<double>() > 0.0) {
+    std::printf(" + %.4f C with %.0f s", fit["noise_slower_c"].get<double>(), fit["noise_slower_tau_s"].get<double>());
+  }
+  std::printf("\n");
   std::printf("  identified (per unit of casing heat capacity; +/- one standard error):\n");
   for (const auto& p : j["parameters"]) {
     std::printf("    %-28s %12s +/- %-10s %-10s %s\n", p["name"].get<std::string>().c_str(), num(p["value"], "%.5g").c_str(),

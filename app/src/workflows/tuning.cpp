@@ -238,6 +238,7 @@ nlohmann::json tune_json(const TuneResult& r) {
   j["duration_s"] = f.duration_s;
   j["identify_s"] = r.identify_s;
   j["design_s"] = r.design_s;
+  const double row_s = f.duration_s / static_cast<double>(std::max<std::size_t>(1, f.samples - 1));
   j["fit"] = {{"rms_c", f.rms_c},
               {"max_abs_c", f.max_abs_c},
               {"quantisation_rms_c", f.quantisation_rms_c},
@@ -246,7 +247,9 @@ nlohmann::json tune_json(const TuneResult& r) {
               {"effective_samples", f.effective_samples},
               {"noise_white_c", std::sqrt(f.noise.white_var)},
               {"noise_slow_c", std::sqrt(f.noise.slow_var)},
-              {"noise_slow_tau_s", f.noise.slow_tau_rows * f.duration_s / static_cast<double>(std::max<std::size_t>(1, f.samples - 1))},
+              {"noise_slow_tau_s", f.noise.slow_tau_rows * row_s},
+              {"noise_slower_c", std::sqrt(f.noise.slower_var)},
+              {"noise_slower_tau_s", f.noise.slower_tau_rows * row_s},
               {"ljung_box_p", f.ljung_box_p},
               {"ambient_measured", f.ambient_measured},
               {"rail_reached", f.rail_reached}};
