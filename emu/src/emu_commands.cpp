@@ -1,5 +1,7 @@
 #include "gyrotc/emu/emu_commands.hpp"
 
+#include <CLI/CLI.hpp>
+
 #include <algorithm>
 #include <cmath>
 #include <cstdio>

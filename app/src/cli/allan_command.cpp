@@ -3,6 +3,8 @@
 // noise terms the record supports with their intervals, and an optional
 // log-log SVG plot with the terms' lines and the fitted model.
 
+#include <CLI/CLI.hpp>
+
 #include <nlohmann/json.hpp>
 
 #include <cmath>

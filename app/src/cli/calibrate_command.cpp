@@ -3,6 +3,8 @@
 // (calibrate/sweep_experiment.hpp), then the record is fitted as `gyrotc fit
 // --method auto` fits it, and refused when its range does not cover what the
 // unit sees in service.
+#include <CLI/CLI.hpp>
+
 #include <signal.h>
 
 #include <algorithm>

@@ -1,5 +1,7 @@
 // `gyrotc check-config`: a configuration checked as `run` reads it (and the
 // calibration and controller files it names), without opening any device.
+#include <CLI/CLI.hpp>
+
 #include <cstdio>
 #include <memory>
 #include <stdexcept>

@@ -1,5 +1,7 @@
 #include "gyrotc/app/cli/cli_main.hpp"
 
+#include <CLI/CLI.hpp>
+
 #include <algorithm>
 #include <cmath>
 #include <exception>

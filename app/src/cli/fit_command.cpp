@@ -2,6 +2,8 @@
 // by temperature) into a zero-bias model, reports in-sample and leave-one-out
 // errors, compares the methods side by side, and writes the calibration file.
 
+#include <CLI/CLI.hpp>
+
 #include <nlohmann/json.hpp>
 
 #include <algorithm>

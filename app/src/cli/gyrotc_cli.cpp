@@ -1,3 +1,5 @@
+#include <CLI/CLI.hpp>
+
 #include <string>
 
 #include "gyrotc/app/cli/commands.hpp"

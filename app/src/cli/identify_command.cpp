@@ -3,6 +3,8 @@
 // Reads the CSV, runs gyrotc::identify, prints a summary or JSON, and writes
 // the optional Markdown report and the plant description with the effects on.
 
+#include <CLI/CLI.hpp>
+
 #include <nlohmann/json.hpp>
 
 #include <algorithm>

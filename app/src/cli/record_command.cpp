@@ -1,4 +1,6 @@
 // `gyrotc record`: the raw data a calibration needs, from the running board.
+#include <CLI/CLI.hpp>
+
 #include <memory>
 #include <string>
 

@@ -1,4 +1,6 @@
 // `gyrotc run`: the controller daemon (issue 6).
+#include <CLI/CLI.hpp>
+
 #include <memory>
 
 #include "gyrotc/app/cli/cli_main.hpp"

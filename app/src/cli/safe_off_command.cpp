@@ -1,4 +1,6 @@
 // `gyrotc safe-off`: only the safe state (systemd ExecStopPost after a crash).
+#include <CLI/CLI.hpp>
+
 #include <cstdio>
 #include <memory>
 #include <string>

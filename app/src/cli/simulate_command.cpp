@@ -3,6 +3,8 @@
 // and prints the summary; optionally writes the 1 Hz time series (CSV) and a
 // plot.
 
+#include <CLI/CLI.hpp>
+
 #include <nlohmann/json.hpp>
 
 #include <chrono>

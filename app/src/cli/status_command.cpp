@@ -1,4 +1,6 @@
 // `gyrotc status`: the running daemon's status file, for a person or a script.
+#include <CLI/CLI.hpp>
+
 #include <cmath>
 #include <cstdio>
 #include <memory>

@@ -3,6 +3,8 @@
 // tec_a (and ambient_c), designs the controller with a stated robustness
 // margin, writes the controller file and prints the report.
 
+#include <CLI/CLI.hpp>
+
 #include <cmath>
 #include <cstdio>
 #include <memory>

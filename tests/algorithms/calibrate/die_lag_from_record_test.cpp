@@ -111,7 +111,7 @@ TEST_CASE("a hysteresis beside the lag is the split, not a longer lag") {
   CHECK(lag.split_mv == Approx(0.6).margin(0.1));
 }
 
-TEST_CASE("a die that keeps up with the sensor: a lag is found on at most 2 of 20 records, and none over 15 s") {
+TEST_CASE("a die that keeps up with the sensor: a lag is found on at most 2 of 20 records, and none over 15 s", "[sweep]") {
   int found = 0;
   double longest_s = 0.0;
   for (int k = 0; k < 20; ++k) {
@@ -129,7 +129,7 @@ TEST_CASE("a die that keeps up with the sensor: a lag is found on at most 2 of 2
   CHECK(longest_s < 15.0);
 }
 
-TEST_CASE("the record's lag and its standard error hold the truth over many records, on a bowl as on a line") {
+TEST_CASE("the record's lag and its standard error hold the truth over many records, on a bowl as on a line", "[sweep]") {
   double z2 = 0.0;
   int held = 0;
   constexpr int kRecords = 20;

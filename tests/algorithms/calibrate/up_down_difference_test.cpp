@@ -132,7 +132,7 @@ TEST_CASE("on a bowl a hysteresis is told from the lag: 0.3 mV each way beside a
   CHECK(std::fabs(s.die_lag_s - 60.0) < 3.0 * s.die_lag_s_std);
 }
 
-TEST_CASE("the lag's and the split's errors over records of other noise are what their standard errors say") {
+TEST_CASE("the lag's and the split's errors over records of other noise are what their standard errors say", "[sweep]") {
   // 40 records, each its own noise: the rms over them of (estimate - truth)
   // / standard error is 1 for errors that say what they should. Read off the
   // bins' scatter alone (a Newey-West window over the bins), it was 1.7 for

@@ -219,7 +219,7 @@ TEST_CASE("synthetic records have the Allan variance of their IEEE 952 terms") {
   CHECK(avar_at(ramp, 40) == Approx(avar_coefficient(NoiseTerm::rate_ramp, 2e-4) * 16.0).epsilon(1e-9));
 }
 
-TEST_CASE("white noise and a random walk: both covered, no bias instability reported, over 4 records") {
+TEST_CASE("white noise and a random walk: both covered, no bias instability reported, over 4 records", "[sweep]") {
   // Issue 20's record, shortened to 800 s at 50 Hz (ARW 0.6 deg/sqrt(h),
   // RRW 43.2 deg/h/sqrt(h) made 4x larger so that 800 s show it). In so
   // short a record the random walk is not always told from the rest: then
@@ -243,7 +243,7 @@ TEST_CASE("white noise and a random walk: both covered, no bias instability repo
   CHECK(k_covered >= 3);
 }
 
-TEST_CASE("the fit finds a bias instability that is there, its 95 % interval covering the truth in >= 5 of 6 records") {
+TEST_CASE("the fit finds a bias instability that is there, its 95 % interval covering the truth in >= 5 of 6 records", "[sweep]") {
   // 20 min at 25 Hz of angle random walk and a 10 deg/h bias instability.
   const double b_true = 10.0 / 3600.0;
   int covered = 0;
@@ -257,7 +257,7 @@ TEST_CASE("the fit finds a bias instability that is there, its 95 % interval cov
   CHECK(covered >= 5);
 }
 
-TEST_CASE("a rate random walk and a rate ramp together: both resolved and covered in >= 5 of 6 records") {
+TEST_CASE("a rate random walk and a rate ramp together: both resolved and covered in >= 5 of 6 records", "[sweep]") {
   // 3 h at 10 Hz: white rate noise, issue 20's random walk and a 129.6 deg/h
   // per hour ramp, which dominates the Allan variance beyond tau ~ 300 s.
   // The Allan variance alone cannot apportion the rise between the two (the
@@ -305,7 +305,7 @@ TEST_CASE("a term not resolved still carries its value if present, within its up
   CHECK(unresolved_with_value >= 4);
 }
 
-TEST_CASE("a rate random walk beside a bias instability, when not resolved, is still estimated within a factor 2 in >= 5 of 6 records") {
+TEST_CASE("a rate random walk beside a bias instability, when not resolved, is still estimated within a factor 2 in >= 5 of 6 records", "[sweep]") {
   // 3 h at 10 Hz of white rate noise, a 10 deg/h bias instability and issue
   // 20's random walk: the record type where the random walk is unresolved
   // in about half the records (docs/ALLAN.md). Reporting nothing for it

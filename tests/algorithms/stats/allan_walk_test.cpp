@@ -107,7 +107,7 @@ TEST_CASE("allan takes the walk from the block means only where it hides below a
   CHECK(walk(refined) < 2.0 * kRrw);
 }
 
-TEST_CASE("records with no walk to speak of keep a finite upper bound for it, over 20 seeds") {
+TEST_CASE("records with no walk to speak of keep a finite upper bound for it, over 20 seeds", "[sweep]") {
   // 6 s of white noise and a ramp: 500 blocks of one sample each, where the
   // walk's REML value is near 0 and its log-normal interval reached infinity.
   for (std::uint64_t seed = 1; seed <= 20; ++seed) {

@@ -70,7 +70,7 @@ TEST_CASE("the noise fitted to a residual recovers the white and the slow part o
   CHECK(std::exp(log_tau) == Approx(kSlowTauRows).epsilon(0.3));
 }
 
-TEST_CASE("the standard error of a slow regressor's coefficient is its scatter over records") {
+TEST_CASE("the standard error of a slow regressor's coefficient is its scatter over records", "[sweep]") {
   // Without the fit's projection accounted for, the slow noise the wave's
   // coefficient takes in is missing from the residual and the error is low.
   const Eigen::MatrixXd j = design();
@@ -153,14 +153,14 @@ Scatter wave_scatter(tune::NoiseParts parts, std::uint64_t seed) {
 
 }  // namespace
 
-TEST_CASE("with noise on two time scales, one first-order part leaves a slow coefficient's standard error at half its scatter") {
+TEST_CASE("with noise on two time scales, one first-order part leaves a slow coefficient's standard error at half its scatter", "[sweep]") {
   // Why tune fits two parts (thermal_identify.cpp): measured 0.55x.
   const Scatter one = wave_scatter(tune::NoiseParts::one, 13);
   INFO("scatter sd " << one.scatter_sd << ", mean standard error " << one.mean_se);
   CHECK(one.mean_se < 0.7 * one.scatter_sd);
 }
 
-TEST_CASE("with noise on two time scales, two first-order parts give a slow coefficient's standard error near its scatter") {
+TEST_CASE("with noise on two time scales, two first-order parts give a slow coefficient's standard error near its scatter", "[sweep]") {
   // Measured 0.87x: the slower part's time constant is read from one
   // 3000-row record whose wave takes in some of it (fitted 90..2500 rows
   // for a truth of 300).

@@ -101,7 +101,7 @@ double truth_of(const std::string& name) {
 
 }  // namespace
 
-TEST_CASE("on noisy records the fit reaches the noise floor, not a minimum beside it") {
+TEST_CASE("on noisy records the fit reaches the noise floor, not a minimum beside it", "[sweep]") {
   // Four restarts left 6 of these 20 records at rms 0.045 C, every parameter
   // 3-6 standard errors off; the floor is the sensor noise and the steps.
   const SensorNoise noise;

@@ -1,9 +1,13 @@
 #pragma once
 
-#include <CLI/CLI.hpp>
-
 #include <iostream>
 #include <ostream>
+
+// Declared, not included (commands.hpp says why).
+namespace CLI {
+class App;
+class Validator;
+}  // namespace CLI
 
 // The end of every gyrotc executable's main(): parses the command line and
 // runs the subcommand, turning what it throws into the exit status and one

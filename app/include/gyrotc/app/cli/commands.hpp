@@ -1,8 +1,14 @@
 #pragma once
 
-#include <CLI/CLI.hpp>
-#include <nlohmann/json.hpp>
+#include <nlohmann/json_fwd.hpp>
 #include <string>
+
+// CLI11 is declared, not included: its header costs ~10 s of compile per
+// translation unit (30 s under the sanitizers), and the tests that run a
+// command through tests/support/run_command.hpp need only the name.
+namespace CLI {
+class App;
+}  // namespace CLI
 
 // Every `gyrotc <command>` registers itself through one of these;
 // add_gyrotc_commands() calls them in the order of --help. Each callback
