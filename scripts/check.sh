@@ -1,9 +1,9 @@
 #!/usr/bin/env bash
 # The whole test suite, as CI runs it: installs what is missing, then builds
 # and tests (1) natively with AddressSanitizer + UBSan, (2) cross-compiled
-# for aarch64 with the tests run under qemu-aarch64, but for the statistical
-# sweeps (label sweep: `ctest --preset aarch64-sweep`), and (3) the commands the
-# README and docs/ show, run with the release gyrotc (ctest -L docs). Warnings
+# for aarch64 with the tests run under qemu-aarch64, and (3) the commands the
+# README and docs/ show, run with the release gyrotc (ctest -L docs). The
+# statistical sweeps (label sweep) are left to scripts/sweeps.sh. Warnings
 # are errors in (1) and (2). Exits non-zero if anything fails. Build trees:
 # build/debug-asan, build/aarch64, build/release.
 set -euo pipefail

@@ -84,7 +84,7 @@ void on_ioctl(fuse_req_t req, int cmd, void* arg, fuse_file_info*, unsigned flag
   }
 }
 
-const cuse_lowlevel_ops kOps = [] {
+const cuse_lowlevel_ops kCuseOps = [] {
   cuse_lowlevel_ops ops{};
   ops.open = on_open;
   ops.read = on_read;
@@ -131,7 +131,7 @@ CuseSpidev::CuseSpidev(const std::string& path, SpidevEndpoint& endpoint, EventL
   char arg0[] = "gyrotc-emu", arg1[] = "-f", arg2[] = "-s";
   char* argv[] = {arg0, arg1, arg2, nullptr};
   int multithreaded = 0;
-  session_ = cuse_lowlevel_setup(3, argv, &ci, &kOps, &multithreaded, this);
+  session_ = cuse_lowlevel_setup(3, argv, &ci, &kCuseOps, &multithreaded, this);
   if (session_ == nullptr) throw app::RuntimeFailure("cannot create the CUSE device '" + path_ + "' (see above)");
   // Signals are the emulator's own business (its main thread waits for them).
   fuse_remove_signal_handlers(session_);

@@ -180,7 +180,7 @@ void on_release(fuse_req_t req, fuse_ino_t, fuse_file_info* fi) {
   fuse_reply_err(req, 0);
 }
 
-const fuse_lowlevel_ops kOps = [] {
+const fuse_lowlevel_ops kFuseOps = [] {
   fuse_lowlevel_ops ops{};
   ops.lookup = on_lookup;
   ops.getattr = on_getattr;
@@ -207,7 +207,7 @@ W1Filesystem::W1Filesystem(std::string root, std::shared_ptr<W1Bus> bus, EventLo
   char arg0[] = "gyrotc-emu", arg1[] = "-o", arg2[] = "allow_other,fsname=gyrotc-emu-w1,subtype=w1";
   char* argv[] = {arg0, arg1, arg2, nullptr};
   fuse_args args = FUSE_ARGS_INIT(3, argv);
-  session_ = fuse_session_new(&args, &kOps, sizeof kOps, this);
+  session_ = fuse_session_new(&args, &kFuseOps, sizeof kFuseOps, this);
   if (session_ == nullptr) throw app::RuntimeFailure("cannot create the FUSE session for '" + root_ + "'");
   if (fuse_session_mount(session_, root_.c_str()) != 0) {
     fuse_session_destroy(session_);

@@ -5,7 +5,6 @@
 #include <cstdio>
 #include <filesystem>
 #include <initializer_list>
-#include <limits>
 #include <stdexcept>
 #include <string_view>
 
@@ -15,8 +14,6 @@
 
 namespace gyrotc::app {
 namespace {
-
-constexpr double kInf = std::numeric_limits<double>::infinity();
 
 void check_top_level(const toml::table& root, const std::string& source) {
   static constexpr std::string_view kKnown[] = {"hal",     "devices",     "tec",    "sim",     "control",
@@ -79,9 +76,9 @@ DaemonConfig parse_daemon_config(const toml::table& root, const std::string& sou
   cc.setpoint_c = control.number("setpoint_c", cc.setpoint_c, cc.limits.min_valid_c, cc.limits.over_temp_c - 1.0);
   const double period_s = control.number("period_s", cc.pid.period_s, 0.01, 3600.0);
   // Seed Section 6.1 gain form (KI = Kp T/TI, KD = Kp TD/T): defaults Eq. 17/18.
-  const double kp = control.number("kp", 0.48, 1e-9, kInf);
-  const double ki = control.number("ki", 0.32, 1e-9, kInf);
-  const double kd = control.number("kd", 10.0, 0.0, kInf);
+  const double kp = control.number("kp", 0.48, 1e-9, kUnbounded);
+  const double ki = control.number("ki", 0.32, 1e-9, kUnbounded);
+  const double kd = control.number("kd", 10.0, 0.0, kUnbounded);
   cc.pid = control::PidParams::from_gains(kp, ki, kd, period_s);
   cc.pid.xi_c = control.number("xi_c", 0.5, 0.0, 200.0);
   cc.pid.out_min = control.number("out_min_a", -limit_a, -limit_a, limit_a);

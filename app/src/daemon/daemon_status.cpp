@@ -19,7 +19,7 @@ namespace {
 constexpr std::uint32_t kFaultFlags = kFlagTempStale | kFlagTempInvalid | kFlagTempStuck | kFlagOverTempLatched |
                                       kFlagOpa548Thermal | kFlagAdcInvalid | kFlagAdcStalled;
 
-std::string format(const char* fmt, auto... args) {
+std::string formatted(const char* fmt, auto... args) {
   char text[256];
   std::snprintf(text, sizeof text, fmt, args...);
   return text;
@@ -72,18 +72,18 @@ std::string status_sentence(const DaemonStatus& s) {
   if (state == "fault") {
     std::string names;
     for (const std::string& n : names_of(s.flags & kFaultFlags)) names += (names.empty() ? "" : "+") + n;
-    return "fault " + names + format(": casing %.2f °C, TEC %+.2f A", s.casing_c, s.tec_a);
+    return "fault " + names + formatted(": casing %.2f °C, TEC %+.2f A", s.casing_c, s.tec_a);
   }
   if (state == "starting") return "starting: no casing reading yet, TEC off";
   if (state == "experiment")
-    return format("experiment (%s): casing %.2f °C, TEC %+.2f A",
+    return formatted("experiment (%s): casing %.2f °C, TEC %+.2f A",
                   s.experiment.empty() ? "TEC programme" : s.experiment.c_str(), s.casing_c, s.tec_a);
-  if (state == "tec_off") return format("TEC off (compensation only): casing %.2f °C", s.casing_c);
-  if (state == "holding") return format("holding %.2f °C ±%.2f, TEC %+.2f A", s.setpoint_c, s.held_error_c, s.tec_a);
+  if (state == "tec_off") return formatted("TEC off (compensation only): casing %.2f °C", s.casing_c);
+  if (state == "holding") return formatted("holding %.2f °C ±%.2f, TEC %+.2f A", s.setpoint_c, s.held_error_c, s.tec_a);
   if (state == "saturated") {
-    return format("saturated: casing %.2f °C for %.2f °C, TEC %+.2f A (the limit)", s.casing_c, s.setpoint_c, s.tec_a);
+    return formatted("saturated: casing %.2f °C for %.2f °C, TEC %+.2f A (the limit)", s.casing_c, s.setpoint_c, s.tec_a);
   }
-  return format("%s to %.2f °C: casing %.2f °C, TEC %+.2f A", state.c_str(), s.setpoint_c, s.casing_c, s.tec_a);
+  return formatted("%s to %.2f °C: casing %.2f °C, TEC %+.2f A", state.c_str(), s.setpoint_c, s.casing_c, s.tec_a);
 }
 
 std::string status_json(const DaemonStatus& s) {
@@ -149,7 +149,7 @@ std::string prometheus_text(const DaemonStatus& s) {
     out += series + " " +
            (std::isnan(v)   ? std::string("NaN")
             : std::isinf(v) ? (v > 0 ? "+Inf" : "-Inf")
-                            : format("%.9g", v)) +
+                            : formatted("%.9g", v)) +
            "\n";
   };
   metric("gyrotc_up", "gauge",

@@ -21,7 +21,7 @@ namespace gyrotc::app {
 namespace {
 
 constexpr std::string_view kFormat = "gyrotc-calibration";
-constexpr std::int64_t kVersion = 1;
+constexpr std::int64_t kFileVersion = 1;
 constexpr double kSeedScaleMvPerDps = 8.774;  // seed Table 2 note
 // A die an hour behind its casing sensor is not a die: most likely a unit
 // mistaken (ms for s).
@@ -194,7 +194,7 @@ Calibration parse_calibration(std::string_view text, const std::string& name) {
   if (top.text("format") != kFormat) {
     top.fail(top.get("format"), "format", "expected \"" + std::string(kFormat) + "\"");
   }
-  if (top.integer("version") != kVersion) {
+  if (top.integer("version") != kFileVersion) {
     top.fail(top.get("version"), "version", "unsupported version (this gyrotc reads version 1)");
   }
   const double scale = top.optional_number("scale_mv_per_dps").value_or(kSeedScaleMvPerDps);
@@ -323,7 +323,7 @@ std::string format_calibration(const fit::BiasModel& model, double scale_mv_per_
   s += "# Compensated rate = (gyro_mv - bias_mv(T)) / scale_mv_per_dps; outside range_c the\n";
   s += "# model is evaluated at the nearest end of the range and the sample is flagged.\n";
   s += "format = " + quoted(std::string(kFormat)) + "\n";
-  s += "version = " + std::to_string(kVersion) + "\n";
+  s += "version = " + std::to_string(kFileVersion) + "\n";
   s += "kind = " + quoted(std::string(model.kind_name())) + "\n";
   s += "scale_mv_per_dps = " + format_number(scale_mv_per_dps) + "\n";
   if (model.kind() != fit::BiasModel::Kind::paper_reference) {

@@ -5,7 +5,6 @@
 #include <cmath>
 #include <cstdio>
 #include <fstream>
-#include <limits>
 #include <sstream>
 #include <stdexcept>
 
@@ -14,8 +13,6 @@
 
 namespace gyrotc::app {
 namespace {
-
-constexpr double kInf = std::numeric_limits<double>::infinity();
 
 // A key the file must give.
 double required(const TomlTable& t, const char* key, double min, double max) {
@@ -66,9 +63,9 @@ ControllerFile parse_controller_file(std::string_view text, const std::string& n
                           {"setpoint_c", "kp", "ki", "kd", "period_s", "xi_c", "feed_forward_a_per_c",
                            "feed_forward_lag_s", "setpoint_ramp_c_per_s"});
   c.setpoint_c = required(control, "setpoint_c", -55.0, 125.0);
-  c.kp = required(control, "kp", 1e-9, kInf);
-  c.ki = required(control, "ki", 1e-9, kInf);
-  c.kd = required(control, "kd", 0.0, kInf);
+  c.kp = required(control, "kp", 1e-9, kUnbounded);
+  c.ki = required(control, "ki", 1e-9, kUnbounded);
+  c.kd = required(control, "kd", 0.0, kUnbounded);
   c.period_s = required(control, "period_s", 0.01, 3600.0);
   c.xi_c = required(control, "xi_c", 0.0, 200.0);
   c.feed_forward_a_per_c = control.number("feed_forward_a_per_c", 0.0, -10.0, 10.0);

@@ -20,7 +20,7 @@ constexpr const char* kNeeds =
     "gyrotc tune needs time_s, sensor_c and tec_a (and ambient_c when the board has an ambient sensor), as "
     "`gyrotc record --experiment tune` and `gyrotc simulate --profile tune` write them";
 
-double seconds_since(std::chrono::steady_clock::time_point start) {
+double elapsed_s(std::chrono::steady_clock::time_point start) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 }
 
@@ -90,7 +90,7 @@ TuneResult tune_from_record(const TuneInput& input) {
   } catch (const std::invalid_argument& e) {
     throw InputError(input.source + ": " + e.what());
   }
-  r.identify_s = seconds_since(start);
+  r.identify_s = elapsed_s(start);
 
   r.spec.setpoint_c = input.setpoint_c;
   r.spec.room_c = room_of(input.record, r.fit);
@@ -107,7 +107,7 @@ TuneResult tune_from_record(const TuneInput& input) {
   } catch (const std::invalid_argument& e) {
     throw InputError(input.source + ": " + e.what());
   }
-  r.design_s = seconds_since(start);
+  r.design_s = elapsed_s(start);
 
   ControllerFile& c = r.controller;
   c.setpoint_c = input.setpoint_c;

@@ -18,7 +18,7 @@ namespace {
 constexpr double kSlopeMvPerC = 0.5;
 constexpr double kRateCPerS = 0.6 / 60.0;
 
-struct Record {
+struct UpDownRecord {
   std::vector<double> time_s, sensor_c, gyro_mv;
 };
 
@@ -34,8 +34,8 @@ struct Gyro {
 // low -> high C, 300 s dwell, high -> low C, 300 s dwell; a row a second. The
 // die follows the casing through a first-order lag (exact step); the bias is
 // the curve at the die + hysteresis_mv * (the sign of the casing's motion).
-Record sweep(double die_lag_s, double hysteresis_mv, double noise_mv, Gyro gyro = {}) {
-  Record r;
+UpDownRecord sweep(double die_lag_s, double hysteresis_mv, double noise_mv, Gyro gyro = {}) {
+  UpDownRecord r;
   std::mt19937_64 rng(gyro.seed);
   std::normal_distribution<double> normal(0.0, noise_mv);
   std::normal_distribution<double> unit;
@@ -66,7 +66,7 @@ Record sweep(double die_lag_s, double hysteresis_mv, double noise_mv, Gyro gyro 
   return r;
 }
 
-calibrate::UpDownDifference split_of(const Record& r) {
+calibrate::UpDownDifference split_of(const UpDownRecord& r) {
   return calibrate::up_down_difference(r.time_s, r.sensor_c, r.gyro_mv);
 }
 
@@ -92,10 +92,10 @@ TEST_CASE("a bias with hysteresis splits the passes by twice its half-width wher
 }
 
 TEST_CASE("the dwells at the ends count for neither pass, and a bin crossed one way only is left out") {
-  Record r = sweep(0.0, 0.3, 0.05);
+  UpDownRecord r = sweep(0.0, 0.3, 0.05);
   // Cut the downward pass short at 30 C: bins above 30 C were crossed both
   // ways, those below only upwards.
-  Record cut;
+  UpDownRecord cut;
   for (std::size_t i = 0; i < r.time_s.size(); ++i) {
     if (r.time_s[i] > 2000.0 + 300.0 + 1000.0) break;  // up (2000 s), dwell, 1000 s down to 30 C
     cut.time_s.push_back(r.time_s[i]);

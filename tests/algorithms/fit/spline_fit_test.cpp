@@ -3,6 +3,7 @@
 #include <vector>
 
 #include "gyrotc/algorithms/fit/bias_model.hpp"
+#include "gyrotc/algorithms/fit/compensator.hpp"
 #include "gyrotc/algorithms/fit/cross_validation.hpp"
 #include "gyrotc/algorithms/fit/polynomial_fit.hpp"
 #include "gyrotc/algorithms/fit/spline_fit.hpp"
@@ -14,8 +15,6 @@
 using namespace gyrotc::fit;
 
 namespace {
-
-constexpr double kScale = 8.774;  // seed Table 2 note, mV/(deg/s)
 
 double cubic(double t) { return 80.0 - 0.4 * t + 0.01 * t * t - 1.5e-4 * t * t * t; }
 
@@ -58,8 +57,8 @@ TEST_CASE("the not-a-knot spline's LOO on Table 2 is the figure SciPy's CubicSpl
   const std::vector<double> loo = loo_residuals(table.temp_c, table.gyro_mv, [](auto t, auto v, double lo, double hi) {
     return BiasModel::spline(fit_interpolating_spline(t, v, lo, hi));
   });
-  CHECK(gyrotc::stats::max_abs(loo) / kScale == Approx(0.424).margin(0.0005));
-  CHECK(gyrotc::stats::rms(loo) / kScale == Approx(0.138).margin(0.0005));
+  CHECK(gyrotc::stats::max_abs(loo) / Compensator::kSeedScaleMvPerDps == Approx(0.424).margin(0.0005));
+  CHECK(gyrotc::stats::rms(loo) / Compensator::kSeedScaleMvPerDps == Approx(0.138).margin(0.0005));
 }
 
 TEST_CASE("two points give the line and three the parabola through them") {

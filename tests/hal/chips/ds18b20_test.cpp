@@ -25,7 +25,7 @@ std::string text_of(const std::array<std::uint8_t, 9>& pad, bool crc_ok = true) 
   return {out.data(), SimDs18b20::render(W1File::w1_slave, pad, crc_ok, out)};
 }
 
-struct Rig {
+struct SensorRig {
   VirtualClock clock;
   SimDs18b20 chip{"28-000005e2fdc3", 25.0};
   Ds18b20 sensor{chip, clock, Ds18b20Options{}};
@@ -48,7 +48,7 @@ TEST_CASE("a good w1_slave file parses into scratchpad, kernel verdict and milli
   CHECK(slave->scratchpad[8] == 0x57);
   CHECK(slave->kernel_crc_ok);
   CHECK(slave->t_milli_c == 23125);
-  Rig rig;
+  SensorRig rig;
   const auto reading = rig.sensor.evaluate(kGood, 4.0);
   CHECK(reading.valid);
   CHECK(reading.temp_c == Approx(23.125));
@@ -56,21 +56,21 @@ TEST_CASE("a good w1_slave file parses into scratchpad, kernel verdict and milli
 }
 
 TEST_CASE("a negative temperature parses") {
-  Rig rig;
+  SensorRig rig;
   const auto reading = rig.sensor.evaluate(text_of(SimDs18b20::scratchpad_for(-10.125)), 0.0);
   REQUIRE(reading.valid);
   CHECK(reading.temp_c == Approx(-10.125));
 }
 
 TEST_CASE("the kernel's crc=NO is a CRC fault") {
-  Rig rig;
+  SensorRig rig;
   const auto reading = rig.sensor.evaluate(w1_slave("72 01 4b 46 7f ff 0e 10 57", "57", "NO", "23125"), 0.0);
   CHECK_FALSE(reading.valid);
   CHECK(reading.fault == TempFault::crc);
 }
 
 TEST_CASE("our own CRC check catches a scratchpad the kernel line calls YES") {
-  Rig rig;
+  SensorRig rig;
   const auto reading = rig.sensor.evaluate(w1_slave("73 01 4b 46 7f ff 0e 10 57", "57", "YES", "23187"), 0.0);
   CHECK_FALSE(reading.valid);
   CHECK(reading.fault == TempFault::crc);
@@ -79,14 +79,14 @@ TEST_CASE("our own CRC check catches a scratchpad the kernel line calls YES") {
 TEST_CASE("an all-zero scratchpad passes a naive CRC but is a bus-held-low fault") {
   const std::array<std::uint8_t, 9> zeros{};
   CHECK(crc8_maxim(zeros) == 0);  // why it needs its own check
-  Rig rig;
+  SensorRig rig;
   const auto reading = rig.sensor.evaluate(w1_slave("00 00 00 00 00 00 00 00 00", "00", "YES", "0"), 0.0);
   CHECK_FALSE(reading.valid);
   CHECK(reading.fault == TempFault::all_zero);
 }
 
 TEST_CASE("85.000 C right after power-on is the power-on value, not a temperature") {
-  Rig rig;
+  SensorRig rig;
   const auto reading = rig.sensor.evaluate(w1_slave("50 05 4b 46 7f ff 0c 10 1c", "1c", "YES", "85000"), 0.0);
   CHECK_FALSE(reading.valid);
   CHECK(reading.fault == TempFault::power_on_value);
@@ -94,7 +94,7 @@ TEST_CASE("85.000 C right after power-on is the power-on value, not a temperatur
 }
 
 TEST_CASE("85.000 C is accepted when the previous reading was near 85 C") {
-  Rig rig;
+  SensorRig rig;
   REQUIRE(rig.sensor.evaluate(text_of(SimDs18b20::scratchpad_for(84.5)), 0.0).valid);
   const auto reading = rig.sensor.evaluate(text_of(SimDs18b20::scratchpad_for(85.0)), 2.0);
   CHECK(reading.valid);
@@ -102,7 +102,7 @@ TEST_CASE("85.000 C is accepted when the previous reading was near 85 C") {
 }
 
 TEST_CASE("85.000 C after a reading far from 85 C is still the power-on value") {
-  Rig rig;
+  SensorRig rig;
   REQUIRE(rig.sensor.evaluate(kGood, 0.0).valid);
   CHECK(rig.sensor.evaluate(text_of(SimDs18b20::scratchpad_for(85.0)), 2.0).fault == TempFault::power_on_value);
 }
@@ -111,20 +111,20 @@ TEST_CASE("a value outside -55..125 C is out of range") {
   // 0x0800 = 128 C, with a correct CRC.
   std::array<std::uint8_t, 9> pad{0x00, 0x08, 0x4b, 0x46, 0x7f, 0xff, 0x0c, 0x10, 0};
   pad[8] = crc8_maxim(std::span<const std::uint8_t>(pad.data(), 8));
-  Rig rig;
+  SensorRig rig;
   const auto reading = rig.sensor.evaluate(text_of(pad), 0.0);
   CHECK_FALSE(reading.valid);
   CHECK(reading.fault == TempFault::out_of_range);
 }
 
 TEST_CASE("an empty read is its own fault") {
-  Rig rig;
+  SensorRig rig;
   CHECK(rig.sensor.evaluate("", 0.0).fault == TempFault::empty_read);
   CHECK(rig.sensor.evaluate("\n", 0.0).fault == TempFault::empty_read);
 }
 
 TEST_CASE("text that is not the kernel's format is a parse error") {
-  Rig rig;
+  SensorRig rig;
   CHECK(rig.sensor.evaluate("hello\nworld\n", 0.0).fault == TempFault::parse_error);
   CHECK(rig.sensor.evaluate("72 01 4b 46 7f ff 0e 10 57 : crc=57 YES\n", 0.0).fault == TempFault::parse_error);
   CHECK(rig.sensor.evaluate(w1_slave("72 01 4b 46 7f ff 0e 10 57", "57", "MAYBE", "23125"), 0.0).fault ==
@@ -154,7 +154,7 @@ TEST_CASE("an unchanged value for longer than stuck_after_s is a stuck sensor") 
 }
 
 TEST_CASE("the driver reads the simulator's temperature in 1/16 C steps, stamped at conversion start") {
-  Rig rig;
+  SensorRig rig;
   rig.chip.set_temperature_c(23.4);  // 374.4 / 16 -> 374 / 16
   rig.clock.sleep_until(12.0);
   const auto reading = rig.sensor.read();
@@ -164,7 +164,7 @@ TEST_CASE("the driver reads the simulator's temperature in 1/16 C steps, stamped
 }
 
 TEST_CASE("injected sensor faults come out as their typed faults") {
-  Rig rig;
+  SensorRig rig;
   rig.chip.set_temperature_c(30.0);
   REQUIRE(rig.sensor.read().valid);
   rig.chip.set_fault(SimTempFault::crc_error);

@@ -18,20 +18,20 @@ struct Recorder final : SimAd5060::Listener, SimOpa548::Listener {
   void on_opa548_drive(bool released) noexcept override { events.push_back(released ? "enable" : "disable"); }
 };
 
-struct Rig {
+struct StageRig {
   Recorder recorder;
   SimAd5060 dac_chip{"sim:ad5060-tec", 2.5, &recorder};
   SimOpa548 amp_chip{&recorder};
   Ad5060 dac{dac_chip, {.vref_v = 2.5}};
   Opa548 amp{amp_chip.es_drive(), &amp_chip.es_sense()};
   TecStage tec{dac, amp, {.gain_a_per_v = 1.0, .current_limit_a = 1.2}};
-  Rig() { REQUIRE(dac.init().ok()); }
+  StageRig() { REQUIRE(dac.init().ok()); }
 };
 
 }  // namespace
 
 TEST_CASE("the OPA548 is disabled until enabled") {
-  Rig rig;
+  StageRig rig;
   CHECK_FALSE(rig.amp_chip.output_enabled());
   CHECK_FALSE(rig.amp.enabled());
   REQUIRE(rig.tec.enable(true).ok());
@@ -39,7 +39,7 @@ TEST_CASE("the OPA548 is disabled until enabled") {
 }
 
 TEST_CASE("0 A is DAC mid-scale and the current maps through the stage gain") {
-  Rig rig;
+  StageRig rig;
   REQUIRE(rig.tec.set_current_a(0.0).ok());
   CHECK(rig.dac_chip.code() == 32768);
   REQUIRE(rig.tec.set_current_a(0.5).ok());
@@ -49,7 +49,7 @@ TEST_CASE("0 A is DAC mid-scale and the current maps through the stage gain") {
 }
 
 TEST_CASE("current commands beyond the limit are clamped to it") {
-  Rig rig;
+  StageRig rig;
   REQUIRE(rig.tec.set_current_a(5.0).ok());
   CHECK(rig.tec.last_current_a() == 1.2);
   CHECK(rig.dac_chip.output_v() == Approx(2.45).margin(1e-4));
@@ -58,7 +58,7 @@ TEST_CASE("current commands beyond the limit are clamped to it") {
 }
 
 TEST_CASE("safe_off sets the DAC to 0 A first, then disables the OPA548") {
-  Rig rig;
+  StageRig rig;
   REQUIRE(rig.tec.set_current_a(1.0).ok());
   REQUIRE(rig.tec.enable(true).ok());
   rig.recorder.events.clear();
@@ -70,7 +70,7 @@ TEST_CASE("safe_off sets the DAC to 0 A first, then disables the OPA548") {
 }
 
 TEST_CASE("with a sense line a thermal shutdown shows while enabled") {
-  Rig rig;
+  StageRig rig;
   REQUIRE(rig.tec.senses_thermal());
   REQUIRE(rig.tec.enable(true).ok());
   auto status = rig.tec.thermal_status();
@@ -86,7 +86,7 @@ TEST_CASE("with a sense line a thermal shutdown shows while enabled") {
 }
 
 TEST_CASE("while disabled the thermal state is unknown: E/S is held low by the board") {
-  Rig rig;
+  StageRig rig;
   rig.amp_chip.inject_thermal_shutdown(true);
   CHECK(*rig.tec.thermal_status() == ThermalStatus::unknown);
   rig.amp_chip.inject_thermal_shutdown(false);

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cstdint>
 #include <initializer_list>
+#include <limits>
 #include <string>
 #include <string_view>
 #include <utility>
@@ -19,6 +20,9 @@ namespace gyrotc::app {
 
 // root's table `name`, nullptr when absent; an InputError when it is not a table.
 const toml::table* toml_section(const toml::table& root, const std::string& name, const std::string& source);
+
+// A key's range without an upper end: TomlTable::number(key, fallback, min, kUnbounded).
+inline constexpr double kUnbounded = std::numeric_limits<double>::infinity();
 
 // A number as the messages show it (%g).
 std::string format_toml_number(double v);
