@@ -150,7 +150,7 @@ TEST_CASE("a structure chosen by CV is optimistic in its plain LOO: nested LOO r
   CHECK(gyrotc::stats::rms(nested) > f.errors.loo_rms);
 }
 
-TEST_CASE("the default piecewise fit is continuous; independent segments step") {
+TEST_CASE("the default piecewise fit is continuous, independent segments step") {
   const auto table = gyrotc::test::read_table2();
   MethodOptions o;
   o.method = Method::piecewise;

@@ -54,7 +54,7 @@ TEST_CASE("a sweep narrower than the minimum span is refused for its span alone"
   CHECK(checks(ramp(0.2, 60.0, 1.0), more_bins) == std::vector{ScreenCheck::span});
 }
 
-TEST_CASE("a hold is the casing at one setpoint, TEC on, for most of the record; without those columns it is not judged") {
+TEST_CASE("a hold is the casing at one setpoint, TEC on, for most of the record, without those columns it is not judged") {
   Series s = ramp(0.2, 60.0, 1.0);
   // Every sample "held" at its own setpoint when the columns are given...
   const std::vector<double> at_setpoint = s.sensor_c;

@@ -107,7 +107,7 @@ TEST_CASE("a thermal lag across a one-hour gap is named, with its time constant"
 // Issue 22: across a gap the record cannot tell a drift from the wander's
 // level change. This null record (300 s wander, one hour missing) was
 // answered linear_drift at p = 3e-7 when the drift was tried across the gap.
-TEST_CASE("a null record with a one-hour gap is not read as a drift; the note says linear_drift was not tried") {
+TEST_CASE("a null record with a one-hour gap is not read as a drift, the note says linear_drift was not tried") {
   IndependentSpec s = spec(487110, 300.0);
   s.gaps = {{3.0 * 3600.0, 3600.0}};
   const auto id = identify_series(make_independent_record(s), SeriesTarget::gyro_mv, fast());

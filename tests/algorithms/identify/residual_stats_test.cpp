@@ -24,7 +24,7 @@ TEST_CASE("chi_square_sf gives the tail probabilities of tabulated chi-square cr
   CHECK(chi_square_sf(10.828, 1) == Approx(0.001).margin(1e-5));
 }
 
-TEST_CASE("the long-run variance factor of AR(1) noise approaches (1+rho)/(1-rho); of white noise, 1") {
+TEST_CASE("the long-run variance factor of AR(1) noise approaches (1+rho)/(1-rho), of white noise, 1") {
   std::mt19937_64 rng(11);
   std::normal_distribution<double> normal(0.0, 1.0);
   std::vector<double> white(200000), ar(200000);

@@ -125,7 +125,7 @@ TEST_CASE("the modelled covariance of the estimates matches a simulation of whit
   }
 }
 
-TEST_CASE("the Allan estimate's expected value is tau^p per unit coefficient; the Hadamard's white rate 1, random walk 1/2, white angle 10/9") {
+TEST_CASE("the Allan estimate's expected value is tau^p per unit coefficient, the Hadamard's white rate 1, random walk 1/2, white angle 10/9") {
   const double tau0 = 0.1;
   const std::vector<VarianceEstimate> e{{40, 2}, {40, 3}};
   const AvarCovariance cov(e, 20000, tau0);
@@ -281,7 +281,7 @@ TEST_CASE("a rate random walk and a rate ramp together: both resolved and covere
   CHECK(r_found >= 5);
 }
 
-TEST_CASE("a term not resolved still carries its value if present, within its upper bound; a resolved term's value is its own") {
+TEST_CASE("a term not resolved still carries its value if present, within its upper bound, a resolved term's value is its own") {
   // White noise and a random walk, 800 s at 50 Hz (as above): the bias
   // instability and the ramp are absent, the random walk often unresolved.
   int unresolved_with_value = 0;  // the branch below must run, or the test proves nothing

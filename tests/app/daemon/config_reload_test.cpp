@@ -69,7 +69,7 @@ TEST_CASE("a value of another type is a change, the same value written otherwise
   CHECK(changed("[control]\nkp = 1.0\n", "[control]\nkp   =   1.0   # comment\n").empty());
 }
 
-TEST_CASE("the controller, the calibration and the outputs reload; wiring, HAL, fail-safes and periods do not") {
+TEST_CASE("the controller, the calibration and the outputs reload, wiring, HAL, fail-safes and periods do not") {
   for (const char* key : {"control.setpoint_c", "control.kp", "control.ki", "control.kd", "control.period_s",
                           "control.xi_c", "control.out_min_a", "control.out_max_a", "control.pid",
                           "control.controller_file", "calibration.file", "output.status_interval_s", "output.stream",

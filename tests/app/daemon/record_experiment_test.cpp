@@ -21,7 +21,7 @@ using namespace gyrotc::test;
 // under qemu (see link.cmake).
 #if !defined(GYROTC_NO_GUEST_THREADS)
 
-TEST_CASE("record --experiment tune drives the TEC through the real-time runner; SIGTERM mid-experiment ends in safe-off") {
+TEST_CASE("record --experiment tune drives the TEC through the real-time runner, SIGTERM mid-experiment ends in safe-off") {
   const std::string dir = gyrotc::test::scratch_dir();
   const std::string csv = dir + "/record_experiment.csv";
   const std::string summary = dir + "/record_experiment_summary.json";

@@ -139,7 +139,7 @@ TEST_CASE("a plant description with an ambient sensitivity reads back what was w
   CHECK(back.effects.ambient_sensitivity->ref_c == 22.5);
 }
 
-TEST_CASE("a plant description's zero-bias curve reads back what was written; Table 2 is not written") {
+TEST_CASE("a plant description's zero-bias curve reads back what was written, Table 2 is not written") {
   gyrotc::model::PlantParams params;
   CHECK(gyrotc::app::format_plant(params).find("zero_bias_c") == std::string::npos);
   params.zero_bias = gyrotc::model::ZeroBiasCurve({-40.0, 0.1, 85.0}, {80.0, 100.0 / 3.0, 90.0});

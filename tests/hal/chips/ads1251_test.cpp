@@ -231,7 +231,7 @@ TEST_CASE("with random wake-up latency and stalls every sample returned is the c
         Approx(conversions).margin(2.0));
 }
 
-TEST_CASE("a conversion too late to be read whole is skipped and counted missed; the next one is read") {
+TEST_CASE("a conversion too late to be read whole is skipped and counted missed, the next one is read") {
   WavyRig rig({});
   REQUIRE(rig.adc.read(0.01).ok());
   rig.clock.sleep_until(2.0 * kPeriodS + 895e-6);  // 895 + 24 us of transfer: past the 907.5 us window

@@ -168,7 +168,7 @@ TEST_CASE("sim ADS1251: an event is readable only irq delay after its edge, and 
   CHECK(rig.next_falling() == Approx(kPeriodS));  // it arrives later, with its own stamp
 }
 
-TEST_CASE("sim ADS1251: a stalled DRDY never falls; the pin reads high") {
+TEST_CASE("sim ADS1251: a stalled DRDY never falls, the pin reads high") {
   Rig rig;
   rig.chip.set_drdy_stall(true);
   const auto edge = rig.chip.drdy().wait_edge(Edge::falling, 0.005);

@@ -125,7 +125,7 @@ TEST_CASE("fault: a DRDY stall longer than adc_stall_s turns the TEC off, and wi
   CHECK((rig.controller().flags() & app::kFlagAdcStalled) == 0);
 }
 
-TEST_CASE("fault: DS18B20 CRC errors hold the TEC current, then turn it off at the stale limit; good readings recover") {
+TEST_CASE("fault: DS18B20 CRC errors hold the TEC current, then turn it off at the stale limit, good readings recover") {
   Rig rig;
   warm_up(rig);
   rig.sim().inject_casing_sensor_fault(hal::SimTempFault::crc_error);
