@@ -213,6 +213,10 @@ Eigen::MatrixXd inverse_normal(const Eigen::MatrixXd& jacobian) {
   return scale.asDiagonal() * inverse * scale.asDiagonal();
 }
 
+double standard_error(const Eigen::MatrixXd& covariance, Eigen::Index i) {
+  return std::sqrt(std::max(0.0, covariance(i, i)));
+}
+
 Eigen::VectorXd predict_with_theta(const Eigen::VectorXd& y, const SeparableModel& model,
                                    const std::vector<double>& theta,
                                    const std::vector<bool>& train) {

@@ -220,7 +220,6 @@ std::vector<double> log_grid(double lo, double hi, int count) {
 }
 
 
-double se(const Eigen::MatrixXd& cov, Eigen::Index i) { return std::sqrt(std::max(0.0, cov(i, i))); }
 
 // Nonlinear parameters of an effect or probe (log10 of a time, each).
 int theta_count(const std::string& e) {
@@ -393,35 +392,36 @@ EffectReadout gyro_readout(const GyroSetup& s, const std::string& effect,
   EffectReadout out;
   out.in_bounds = true;
   const auto ratio = [&](Eigen::Index i, double value) {
-    const double e = se(cov, i);
+    const double e = standard_error(cov, i);
     return e > 0 ? std::fabs(value) / e : 1e9;
   };
   out.amplitude_index = effect == "thermal_lag" ? th : col;
   if (effect == "thermal_lag") {
     const double tau = std::pow(10.0, fit.theta[static_cast<std::size_t>(th - n_beta)]);
-    const double se_log = se(cov, th);
+    const double se_log = standard_error(cov, th);
     out.params = {{"tau_s", tau, tau * kLn10 * se_log}};
     out.t_ratio = se_log > 0 ? 1.0 / (kLn10 * se_log) : 1e9;
   } else if (effect == "rate_sensitivity") {
-    out.params = {{"k_mv_per_c_per_s", fit.beta(col), se(cov, col)}};
+    out.params = {{"k_mv_per_c_per_s", fit.beta(col), standard_error(cov, col)}};
     out.t_ratio = ratio(col, fit.beta(col));
   } else if (effect == "ramp_hysteresis") {
     const double r0 = std::pow(10.0, fit.theta[static_cast<std::size_t>(th - n_beta)]);
-    out.params = {{"h_mv", fit.beta(col), se(cov, col)},
-                  {"r0_c_per_s", r0, r0 * kLn10 * se(cov, th)}};
+    out.params = {{"h_mv", fit.beta(col), standard_error(cov, col)},
+                  {"r0_c_per_s", r0, r0 * kLn10 * standard_error(cov, th)}};
     out.t_ratio = ratio(col, fit.beta(col));
   } else if (effect == "warm_up") {
     const double tau = std::pow(10.0, fit.theta[static_cast<std::size_t>(th - n_beta)]);
-    out.params = {{"a_mv", fit.beta(col), se(cov, col)}, {"tau_s", tau, tau * kLn10 * se(cov, th)}};
+    out.params = {{"a_mv", fit.beta(col), standard_error(cov, col)},
+                  {"tau_s", tau, tau * kLn10 * standard_error(cov, th)}};
     out.t_ratio = ratio(col, fit.beta(col));
   } else if (effect == "ambient_sensitivity") {
-    out.params = {{"k_mv_per_c", fit.beta(col), se(cov, col)}, {"ref_c", model::kAmbientReferenceC, 0.0}};
+    out.params = {{"k_mv_per_c", fit.beta(col), standard_error(cov, col)}, {"ref_c", model::kAmbientReferenceC, 0.0}};
     out.t_ratio = ratio(col, fit.beta(col));
     // Larger than the bias's own temperature slope (~1 mV/C, seed Table 2)
     // is not a plausible coupling of the readout to its surroundings.
     out.in_bounds = std::fabs(fit.beta(col)) <= 5.0;
   } else if (effect == "linear_drift") {
-    out.params = {{"d_mv_per_h", fit.beta(col), se(cov, col)}};
+    out.params = {{"d_mv_per_h", fit.beta(col), standard_error(cov, col)}};
     out.t_ratio = ratio(col, fit.beta(col));
   } else if (effect == "level_change_structure") {
     // Where it is in the temperature history too: the casing then, and the
@@ -436,9 +436,9 @@ EffectReadout gyro_readout(const GyroSetup& s, const std::string& effect,
       casing_c = b.temp_c(i);
       max_before_c = std::max(max_before_c, b.temp_c(i));
     }
-    out.params = {{"a_mv", fit.beta(col), se(cov, col)},
-                  {"t0_s", t0, t0 * kLn10 * se(cov, th)},
-                  {"tau_s", at(th + 1), at(th + 1) * kLn10 * se(cov, th + 1)},
+    out.params = {{"a_mv", fit.beta(col), standard_error(cov, col)},
+                  {"t0_s", t0, t0 * kLn10 * standard_error(cov, th)},
+                  {"tau_s", at(th + 1), at(th + 1) * kLn10 * standard_error(cov, th + 1)},
                   {"casing_c", casing_c, 0.0},
                   {"max_before_c", max_before_c, 0.0}};
     out.t_ratio = ratio(col, fit.beta(col));
@@ -456,10 +456,10 @@ EffectReadout gyro_readout(const GyroSetup& s, const std::string& effect,
     const double wald = c.determinant() > 0.0 ? a.dot(c.ldlt().solve(a)) : 1e18;
     const double period = std::pow(10.0, fit.theta[static_cast<std::size_t>(th - n_beta)]);
     out.params = {{"amplitude_mv", amplitude, amplitude > 0.0 ? std::sqrt(a.dot(c * a)) / amplitude : 0.0},
-                  {"period_s", period, period * kLn10 * se(cov, th)}};
+                  {"period_s", period, period * kLn10 * standard_error(cov, th)}};
     out.t_ratio = std::sqrt(std::max(0.0, wald));
   } else if (effect == "rate_squared_structure") {
-    out.params = {{"k_mv_per_c2_per_min2", fit.beta(col), se(cov, col)}};
+    out.params = {{"k_mv_per_c2_per_min2", fit.beta(col), standard_error(cov, col)}};
     out.t_ratio = ratio(col, fit.beta(col));
   }
   return out;
@@ -870,9 +870,9 @@ Identification identify_series(const SeriesRecord& record, SeriesTarget target,
       EffectReadout out;
       // k: the casing's steady rise per A^2 = r_th * r_ohm / 2 (half the Joule heat reaches the casing).
       const double k = fit.beta(4);
-      if (r_th > 0.0) out.params.push_back({"r_ohm", 2.0 * k / r_th, 2.0 * se(cov, 4) / r_th});
-      out.params.push_back({"rise_k_per_a2", k, se(cov, 4)});
-      out.t_ratio = se(cov, 4) > 0 ? std::fabs(k) / se(cov, 4) : 1e9;
+      if (r_th > 0.0) out.params.push_back({"r_ohm", 2.0 * k / r_th, 2.0 * standard_error(cov, 4) / r_th});
+      out.params.push_back({"rise_k_per_a2", k, standard_error(cov, 4)});
+      out.t_ratio = standard_error(cov, 4) > 0 ? std::fabs(k) / standard_error(cov, 4) : 1e9;
       out.in_bounds = k > 0.0 && (r_th <= 0.0 || 2.0 * k / r_th < 50.0);
       out.amplitude_index = 4;
       return out;

@@ -20,7 +20,6 @@ std::vector<double> grid(double from, double to, double step) {
 }
 
 
-double coefficient_se(const Eigen::MatrixXd& cov, Eigen::Index i) { return std::sqrt(std::max(0.0, cov(i, i))); }
 
 std::vector<Region> temperature_bands(std::span<const double> temp_c, const Eigen::VectorXd& residual) {
   const auto [lo, hi] = std::minmax_element(temp_c.begin(), temp_c.end());
@@ -144,7 +143,7 @@ SelectionProblem quality_problem(std::span<const double> temp_c, const Eigen::Ve
       const double var_ln_a = cov(k, k) + d * d * cov(k + 1, k + 1) + 2.0 * d * cov(k, k + 1);
       const double a = std::exp(ln_a);
       out.params = {{"a", a, a * std::sqrt(std::max(0.0, var_ln_a))},
-                    {"ea_kj_per_mol", ea, coefficient_se(cov, k + 1)}};
+                    {"ea_kj_per_mol", ea, standard_error(cov, k + 1)}};
       // The effect's size: how much desorbed gas changes ln Q across the
       // table, with its standard error by the delta method.
       const auto swing = [&](double lb_, double ea_) {
@@ -172,7 +171,7 @@ SelectionProblem quality_problem(std::span<const double> temp_c, const Eigen::Ve
       const double q0 = v > 0 ? std::exp(lc) / (v * std::sqrt(t_ref)) : 0.0;
       const double var_ln_q0 = cov(0, 0) + cov(k, k) / (v * v) - 2.0 * cov(0, k) / v;
       out.params = {{"q0", q0, std::fabs(q0) * std::sqrt(std::max(0.0, var_ln_q0))}};
-      const double se_v = coefficient_se(cov, k);
+      const double se_v = standard_error(cov, k);
       out.t_ratio = se_v > 0 ? std::fabs(v) / se_v : 1e9;
       out.in_bounds = v > 0.0;
     }
@@ -216,8 +215,8 @@ SelectionProblem frequency_problem(std::span<const double> temp_c, const Eigen::
     EffectReadout out;
     const double f0 = fit.beta(0);
     const double tc2 = fit.beta(2) / f0 * 1e6;
-    out.params = {{"tc2_ppm_per_c2", tc2, coefficient_se(cov, 2) / f0 * 1e6}};
-    out.t_ratio = coefficient_se(cov, 2) > 0 ? std::fabs(fit.beta(2)) / coefficient_se(cov, 2) : 1e9;
+    out.params = {{"tc2_ppm_per_c2", tc2, standard_error(cov, 2) / f0 * 1e6}};
+    out.t_ratio = standard_error(cov, 2) > 0 ? std::fabs(fit.beta(2)) / standard_error(cov, 2) : 1e9;
     // Second-order coefficients of silicon resonators are a small fraction
     // of a ppm/C^2; allow an order of magnitude more.
     out.in_bounds = std::fabs(tc2) <= 5.0;

@@ -25,6 +25,7 @@
 #include "gyrotc/app/support/errors.hpp"
 #include "gyrotc/app/formats/plant_file.hpp"
 #include "gyrotc/app/support/progress.hpp"
+#include "gyrotc/app/support/stopwatch.hpp"
 #include "gyrotc/app/report/svg_plot.hpp"
 #include "gyrotc/app/support/output_path.hpp"
 
@@ -375,7 +376,7 @@ void run_identify(const IdentifyOptions& o) {
   const auto start = std::chrono::steady_clock::now();
   const id::Identification result = is_static_target(target) ? run_static(table, target)
                                                               : run_series(table, target, o);
-  const double elapsed_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  const double elapsed_s = seconds_since(start);
   if (o.json) {
     std::printf("%s\n", to_json(result, elapsed_s).dump(2).c_str());
   } else {

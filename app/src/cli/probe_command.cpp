@@ -14,6 +14,7 @@
 #include "gyrotc/app/cli/commands.hpp"
 #include "gyrotc/app/daemon/config.hpp"
 #include "gyrotc/app/support/errors.hpp"
+#include "gyrotc/app/support/text_format.hpp"
 #include "gyrotc/hal/linux/gpio_persistence.hpp"
 
 namespace gyrotc::app {
@@ -29,17 +30,11 @@ struct DeviceResult {
   nlohmann::ordered_json values = nlohmann::ordered_json::object();
 };
 
-std::string format(const char* fmt, auto... args) {
-  char buffer[320];
-  std::snprintf(buffer, sizeof buffer, fmt, args...);
-  return buffer;
-}
-
 DeviceResult probe_sensor(const char* device, hal::TemperatureSensor& sensor) {
   const hal::TemperatureReading reading = sensor.read();
   const std::string name(sensor.name());
   if (reading.valid) {
-    return {device, "ok", format("%.4f C (%s)", reading.temp_c, name.c_str()),
+    return {device, "ok", printf_string("%.4f C (%s)", reading.temp_c, name.c_str()),
             {{"temp_c", reading.temp_c}, {"sensor", name}}};
   }
   return {device, "error", name + ": " + std::string(hal::to_string(reading.fault))};
@@ -58,11 +53,11 @@ DeviceResult probe_adc(hal::Board& board, double sample_period_s, double timeout
   }
   const hal::AdcReadStats stats = board.adc.stats();
   return {"adc", "ok",
-          format("code %d = %.4f mV%s; %d of %d reads: late reads %llu, spurious edges %llu, missed conversions %llu",
-                 sample->code, sample->gyro_mv, sample->clipped ? " (clipped at full scale)" : "", read, burst,
-                 static_cast<unsigned long long>(stats.late_reads),
-                 static_cast<unsigned long long>(stats.spurious_edges),
-                 static_cast<unsigned long long>(stats.missed_conversions)),
+          printf_string("code %d = %.4f mV%s; %d of %d reads: late reads %llu, spurious edges %llu, missed conversions %llu",
+                        sample->code, sample->gyro_mv, sample->clipped ? " (clipped at full scale)" : "", read, burst,
+                        static_cast<unsigned long long>(stats.late_reads),
+                        static_cast<unsigned long long>(stats.spurious_edges),
+                        static_cast<unsigned long long>(stats.missed_conversions)),
           {{"code", sample->code},
            {"gyro_mv", sample->gyro_mv},
            {"clipped", sample->clipped},
@@ -98,8 +93,8 @@ DeviceResult probe_opa548(hal::Board& board) {
     return {"opa548", "error", "thermal shutdown: E/S read low while enabled at 0 A; disabled again"};
   }
   return {"opa548", "ok",
-          format("thermal flag %s (enabled %.0f ms at 0 A to read E/S), disabled again",
-                 std::string(hal::to_string(*status)).c_str(), kThermalLookS * 1e3),
+          printf_string("thermal flag %s (enabled %.0f ms at 0 A to read E/S), disabled again",
+                        std::string(hal::to_string(*status)).c_str(), kThermalLookS * 1e3),
           {{"thermal", std::string(hal::to_string(*status))}, {"enabled_for_s", kThermalLookS}}};
 }
 

@@ -29,6 +29,7 @@
 #include "gyrotc/app/runtime/lockstep_runner.hpp"
 #include "gyrotc/app/formats/plant_file.hpp"
 #include "gyrotc/app/support/progress.hpp"
+#include "gyrotc/app/support/stopwatch.hpp"
 #include "gyrotc/app/report/svg_plot.hpp"
 #include "gyrotc/app/support/output_path.hpp"
 #include "gyrotc/app/workflows/tuning.hpp"
@@ -432,7 +433,7 @@ void run(const SimulateOptions& o) {
   Progress progress("simulate");
   const auto start = std::chrono::steady_clock::now();
   SimulationResult result = run_simulation(setup, profile, [&](double f) { progress.update(f); });
-  const double wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  const double wall_s = seconds_since(start);
   progress.finish();
 
   std::optional<std::string> csv_path;

@@ -10,6 +10,7 @@
 #include <cstring>
 
 #include "gyrotc/app/runtime/controller.hpp"
+#include "gyrotc/app/support/text_format.hpp"
 
 namespace gyrotc::app {
 namespace {
@@ -18,12 +19,6 @@ namespace {
 // model_clamped (compensated at the calibration's end) is reported, not a fault.
 constexpr std::uint32_t kFaultFlags = kFlagTempStale | kFlagTempInvalid | kFlagTempStuck | kFlagOverTempLatched |
                                       kFlagOpa548Thermal | kFlagAdcInvalid | kFlagAdcStalled;
-
-std::string formatted(const char* fmt, auto... args) {
-  char text[256];
-  std::snprintf(text, sizeof text, fmt, args...);
-  return text;
-}
 
 std::vector<std::string> names_of(std::uint32_t flags) {
   std::vector<std::string> names;
@@ -72,18 +67,22 @@ std::string status_sentence(const DaemonStatus& s) {
   if (state == "fault") {
     std::string names;
     for (const std::string& n : names_of(s.flags & kFaultFlags)) names += (names.empty() ? "" : "+") + n;
-    return "fault " + names + formatted(": casing %.2f °C, TEC %+.2f A", s.casing_c, s.tec_a);
+    return "fault " + names + printf_string(": casing %.2f °C, TEC %+.2f A", s.casing_c, s.tec_a);
   }
   if (state == "starting") return "starting: no casing reading yet, TEC off";
   if (state == "experiment")
-    return formatted("experiment (%s): casing %.2f °C, TEC %+.2f A",
-                  s.experiment.empty() ? "TEC programme" : s.experiment.c_str(), s.casing_c, s.tec_a);
-  if (state == "tec_off") return formatted("TEC off (compensation only): casing %.2f °C", s.casing_c);
-  if (state == "holding") return formatted("holding %.2f °C ±%.2f, TEC %+.2f A", s.setpoint_c, s.held_error_c, s.tec_a);
-  if (state == "saturated") {
-    return formatted("saturated: casing %.2f °C for %.2f °C, TEC %+.2f A (the limit)", s.casing_c, s.setpoint_c, s.tec_a);
+    return printf_string("experiment (%s): casing %.2f °C, TEC %+.2f A",
+                         s.experiment.empty() ? "TEC programme" : s.experiment.c_str(), s.casing_c, s.tec_a);
+  if (state == "tec_off") return printf_string("TEC off (compensation only): casing %.2f °C", s.casing_c);
+  if (state == "holding") {
+    return printf_string("holding %.2f °C ±%.2f, TEC %+.2f A", s.setpoint_c, s.held_error_c, s.tec_a);
   }
-  return formatted("%s to %.2f °C: casing %.2f °C, TEC %+.2f A", state.c_str(), s.setpoint_c, s.casing_c, s.tec_a);
+  if (state == "saturated") {
+    return printf_string("saturated: casing %.2f °C for %.2f °C, TEC %+.2f A (the limit)", s.casing_c, s.setpoint_c,
+                         s.tec_a);
+  }
+  return printf_string("%s to %.2f °C: casing %.2f °C, TEC %+.2f A", state.c_str(), s.setpoint_c, s.casing_c,
+                       s.tec_a);
 }
 
 std::string status_json(const DaemonStatus& s) {
@@ -149,7 +148,7 @@ std::string prometheus_text(const DaemonStatus& s) {
     out += series + " " +
            (std::isnan(v)   ? std::string("NaN")
             : std::isinf(v) ? (v > 0 ? "+Inf" : "-Inf")
-                            : formatted("%.9g", v)) +
+                            : printf_string("%.9g", v)) +
            "\n";
   };
   metric("gyrotc_up", "gauge",

@@ -12,6 +12,7 @@
 #include <string>
 
 #include "gyrotc/app/support/errors.hpp"
+#include "gyrotc/app/support/stopwatch.hpp"
 
 namespace gyrotc::app {
 namespace {
@@ -40,10 +41,6 @@ speed_t baud_constant(int baud) {
   }
   throw InputError("output baud " + std::to_string(baud) +
                    " is not a standard rate (1200 ... 921600, e.g. 115200)");
-}
-
-double seconds_since(std::chrono::steady_clock::time_point start) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 }
 
 }  // namespace

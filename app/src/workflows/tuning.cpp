@@ -12,6 +12,7 @@
 #include "gyrotc/algorithms/fit/bias_model.hpp"
 #include "gyrotc/app/formats/csv_table.hpp"
 #include "gyrotc/app/support/errors.hpp"
+#include "gyrotc/app/support/stopwatch.hpp"
 
 namespace gyrotc::app {
 namespace {
@@ -19,10 +20,6 @@ namespace {
 constexpr const char* kNeeds =
     "gyrotc tune needs time_s, sensor_c and tec_a (and ambient_c when the board has an ambient sensor), as "
     "`gyrotc record --experiment tune` and `gyrotc simulate --profile tune` write them";
-
-double elapsed_s(std::chrono::steady_clock::time_point start) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-}
 
 std::string fmt(const char* format, double a, double b = 0.0) {
   char buf[256];
@@ -90,7 +87,7 @@ TuneResult tune_from_record(const TuneInput& input) {
   } catch (const std::invalid_argument& e) {
     throw InputError(input.source + ": " + e.what());
   }
-  r.identify_s = elapsed_s(start);
+  r.identify_s = seconds_since(start);
 
   r.spec.setpoint_c = input.setpoint_c;
   r.spec.room_c = room_of(input.record, r.fit);
@@ -107,7 +104,7 @@ TuneResult tune_from_record(const TuneInput& input) {
   } catch (const std::invalid_argument& e) {
     throw InputError(input.source + ": " + e.what());
   }
-  r.design_s = elapsed_s(start);
+  r.design_s = seconds_since(start);
 
   ControllerFile& c = r.controller;
   c.setpoint_c = input.setpoint_c;

@@ -14,6 +14,7 @@
 
 #include "gyrotc/algorithms/calibrate/up_down_difference.hpp"
 #include "gyrotc_catch.hpp"
+#include "sensor_steps.hpp"
 
 using namespace gyrotc;
 
@@ -79,7 +80,7 @@ Record sweep(const Unit& u) {
     wander = phi * wander + u.wander_mv * std::sqrt(1.0 - phi * phi) * unit(rng);
     const double curve = u.slope_mv_per_c * die_c + u.bowl_mv_per_c2 * (die_c - 25.0) * (die_c - 25.0);
     r.time_s.push_back(t);
-    r.sensor_c.push_back(std::round(casing * 16.0) / 16.0);
+    r.sensor_c.push_back(test::ds18b20_steps_c(casing));
     r.gyro_mv.push_back(2500.0 + curve + u.hysteresis_mv * direction + wander + u.white_mv * unit(rng));
   }
   return r;

@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "gyrotc_catch.hpp"
+#include "sensor_steps.hpp"
 
 using namespace gyrotc::calibrate;
 
@@ -58,7 +59,7 @@ TEST_CASE("die temperature: follows the lag's equation through steps, turns and 
     t.push_back(time);
     // A ramp up, a step down, a sine: 1/16 C steps as a DS18B20 reads.
     const double truth = time < 100.0 ? 20.0 + 0.05 * time : (time < 160.0 ? 18.0 : 18.0 + 3.0 * std::sin(time / 30.0));
-    c.push_back(std::round(truth * 16.0) / 16.0);
+    c.push_back(gyrotc::test::ds18b20_steps_c(truth));
   }
   const std::vector<double> die = die_temperature_c(t, c, 40.0);
   const std::vector<double> expected = integrated(t, c, 40.0);
@@ -110,7 +111,7 @@ TEST_CASE("die temperature, one reading at a time: follows the lag's equation as
   for (int i = 0; i < 300; ++i) {
     time += (i % 5 == 2) ? 3.0 : 0.75;
     t.push_back(time);
-    c.push_back(std::round((25.0 + 6.0 * std::sin(time / 40.0)) * 16.0) / 16.0);
+    c.push_back(gyrotc::test::ds18b20_steps_c(25.0 + 6.0 * std::sin(time / 40.0)));
     die.update(t.back(), c.back(), 60.0);
     streamed.push_back(die.die_c());
   }

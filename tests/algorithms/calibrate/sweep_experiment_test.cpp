@@ -12,6 +12,7 @@
 
 #include "gyrotc/algorithms/calibrate/sweep_experiment.hpp"
 #include "gyrotc_catch.hpp"
+#include "sensor_steps.hpp"
 
 using namespace gyrotc::calibrate;
 using gyrotc::control::TecProgramInput;
@@ -49,8 +50,6 @@ struct Trace {
   bool finished = false;
 };
 
-double quantised(double c) { return std::round(c * 16.0) / 16.0; }
-
 // Without a die the programme gets no gyro output (NaN, as with no samples).
 Trace run(SweepExperiment& sweep, Casing plant, double setpoint_c = 55.0, double limit_a = 1.0,
           std::optional<Die> die = std::nullopt) {
@@ -63,8 +62,8 @@ Trace run(SweepExperiment& sweep, Casing plant, double setpoint_c = 55.0, double
   for (double time_s = 0.0; time_s < 8.0 * 3600.0; time_s += kPeriodS) {
     TecProgramInput in;
     in.time_s = time_s;
-    in.casing_c = quantised(plant.temp_c);
-    in.ambient_c = quantised(plant.ambient_c);
+    in.casing_c = gyrotc::test::ds18b20_steps_c(plant.temp_c);
+    in.ambient_c = gyrotc::test::ds18b20_steps_c(plant.ambient_c);
     in.setpoint_c = setpoint_c;
     in.min_a = -limit_a;
     in.max_a = limit_a;
@@ -331,7 +330,7 @@ TEST_CASE("the time left it reports falls as the sweep goes and is within a tent
   for (double time_s = 0.0; time_s < 8.0 * 3600.0; time_s += 2.0) {
     TecProgramInput in;
     in.time_s = time_s;
-    in.casing_c = quantised(plant.temp_c);
+    in.casing_c = gyrotc::test::ds18b20_steps_c(plant.temp_c);
     in.ambient_c = plant.ambient_c;
     in.setpoint_c = 55.0;
     in.min_a = -1.0;

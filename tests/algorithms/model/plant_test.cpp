@@ -6,9 +6,11 @@
 #include "gyrotc/algorithms/model/plant.hpp"
 #include "gyrotc/algorithms/stats/allan.hpp"
 #include "gyrotc_catch.hpp"
+#include "plant_drive.hpp"
 
 using gyrotc::model::Plant;
 using gyrotc::model::PlantParams;
+using gyrotc::test::drive_v_for;
 
 namespace {
 
@@ -19,11 +21,6 @@ PlantParams coarse(double step_s = 5.0) {
   p.max_thermal_step_s = step_s;
   p.initial_temp_c = 16.0;
   return p;
-}
-
-// The DAC voltage that commands current_a (mid-scale = 0 A).
-double drive_v_for(const PlantParams& p, double current_a) {
-  return 0.5 * p.dac_vref_v + current_a / p.gain_a_per_v;
 }
 
 void run(Plant& plant, double seconds) {

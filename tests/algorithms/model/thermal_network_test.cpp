@@ -6,11 +6,13 @@
 #include "gyrotc/algorithms/model/plant.hpp"
 #include "gyrotc/algorithms/model/thermal_network.hpp"
 #include "gyrotc_catch.hpp"
+#include "plant_drive.hpp"
 
 using gyrotc::model::kAmbientNode;
 using gyrotc::model::Plant;
 using gyrotc::model::PlantParams;
 using gyrotc::model::ThermalNetwork;
+using gyrotc::test::drive_v_for;
 
 namespace {
 
@@ -28,8 +30,6 @@ ThermalNetwork default_as_network(const PlantParams& p) {
   n.gyro_node = 2;
   return n;
 }
-
-double dac_v_for(const PlantParams& p, double current_a) { return 0.5 * p.dac_vref_v + current_a / p.gain_a_per_v; }
 
 // A node that follows the ambient within milliseconds, carrying a sensor.
 PlantParams fast_node_with_sensor(double tau_s, double offset_c, double noise_c) {
@@ -62,7 +62,7 @@ TEST_CASE("the default plant written as a network simulates as the default plant
     for (Plant* plant : {&a, &b}) {
       plant->set_ambient_c(20.0);
       plant->set_tec_enabled(true);
-      plant->set_tec_drive_v(dac_v_for(p, current_a));
+      plant->set_tec_drive_v(drive_v_for(p, current_a));
     }
     for (int k = 0; k < 3000; ++k) {
       a.advance(1.0);

@@ -7,6 +7,7 @@
 
 #include "gyrotc/algorithms/tune/experiment.hpp"
 #include "gyrotc_catch.hpp"
+#include "sensor_steps.hpp"
 
 using namespace gyrotc;
 using tune::ExperimentPhase;
@@ -31,7 +32,7 @@ std::vector<Step> run(IdentificationExperiment& e, double ambient_c, double min_
   for (;;) {
     control::TecProgramInput in;
     in.time_s = t;
-    in.casing_c = std::nearbyint(casing * 16.0) / 16.0;
+    in.casing_c = test::ds18b20_steps_c(casing);
     in.ambient_c = ambient_c;
     in.setpoint_c = 55.0;
     in.min_a = min_a;

@@ -7,7 +7,6 @@
 #include <cmath>
 #include <cstdint>
 #include <random>
-#include <vector>
 
 #include "gyrotc_catch.hpp"
 
@@ -52,6 +51,28 @@ Fit least_squares(const Eigen::MatrixXd& j, const Eigen::VectorXd& y) {
   return {beta, y - j * beta};
 }
 
+// The wave coefficient's scatter over records of the generator's noise (its
+// truth is 0) and the mean standard error the fitted noise gives it.
+struct Scatter {
+  double scatter_sd = 0.0;
+  double mean_se = 0.0;
+};
+
+Scatter wave_scatter(Eigen::VectorXd (*generate)(std::mt19937_64&), tune::NoiseParts parts, std::uint64_t seed) {
+  const Eigen::MatrixXd j = design();
+  const Eigen::MatrixXd inverse_normal = (j.transpose() * j).inverse();
+  std::mt19937_64 rng(seed);
+  constexpr int kRecords = 300;
+  double scatter = 0.0, mean_var = 0.0;
+  for (int r = 0; r < kRecords; ++r) {
+    const Fit f = least_squares(j, generate(rng));
+    scatter += f.beta(2) * f.beta(2) / kRecords;
+    const tune::ResidualNoise noise_fit = tune::fit_residual_noise(j, f.residual, parts);
+    mean_var += tune::noise_covariance(j, inverse_normal, noise_fit)(2, 2) / kRecords;
+  }
+  return {std::sqrt(scatter), std::sqrt(mean_var)};
+}
+
 }  // namespace
 
 TEST_CASE("the noise fitted to a residual recovers the white and the slow part of the record's noise") {
@@ -73,22 +94,9 @@ TEST_CASE("the noise fitted to a residual recovers the white and the slow part o
 TEST_CASE("the standard error of a slow regressor's coefficient is its scatter over records", "[sweep]") {
   // Without the fit's projection accounted for, the slow noise the wave's
   // coefficient takes in is missing from the residual and the error is low.
-  const Eigen::MatrixXd j = design();
-  const Eigen::MatrixXd inverse_normal = (j.transpose() * j).inverse();
-  std::mt19937_64 rng(12);
-  constexpr int kRecords = 300;
-  std::vector<double> wave;
-  double mean_var = 0.0;
-  for (int r = 0; r < kRecords; ++r) {
-    const Fit f = least_squares(j, noise(rng));
-    wave.push_back(f.beta(2));
-    const Eigen::MatrixXd c = tune::noise_covariance(j, inverse_normal, tune::fit_residual_noise(j, f.residual));
-    mean_var += c(2, 2) / kRecords;
-  }
-  double scatter = 0.0;
-  for (double b : wave) scatter += b * b / kRecords;  // the truth is 0
-  INFO("scatter sd " << std::sqrt(scatter) << ", mean standard error " << std::sqrt(mean_var));
-  CHECK(std::sqrt(mean_var) == Approx(std::sqrt(scatter)).epsilon(0.12));
+  const Scatter one = wave_scatter(noise, tune::NoiseParts::one, 12);
+  INFO("scatter sd " << one.scatter_sd << ", mean standard error " << one.mean_se);
+  CHECK(one.mean_se == Approx(one.scatter_sd).epsilon(0.12));
 }
 
 TEST_CASE("the covariance stays positive when the parameters' scales differ by orders of magnitude") {
@@ -130,32 +138,11 @@ Eigen::VectorXd two_scale_noise(std::mt19937_64& rng) {
   return e;
 }
 
-// The wave coefficient's scatter over records (its truth is 0) and the mean
-// variance the fitted noise gives it.
-struct Scatter {
-  double scatter_sd = 0.0;
-  double mean_se = 0.0;
-};
-
-Scatter wave_scatter(tune::NoiseParts parts, std::uint64_t seed) {
-  const Eigen::MatrixXd j = design();
-  const Eigen::MatrixXd inverse_normal = (j.transpose() * j).inverse();
-  std::mt19937_64 rng(seed);
-  constexpr int kRecords = 300;
-  double scatter = 0.0, mean_var = 0.0;
-  for (int r = 0; r < kRecords; ++r) {
-    const Fit f = least_squares(j, two_scale_noise(rng));
-    scatter += f.beta(2) * f.beta(2) / kRecords;
-    mean_var += tune::noise_covariance(j, inverse_normal, tune::fit_residual_noise(j, f.residual, parts))(2, 2) / kRecords;
-  }
-  return {std::sqrt(scatter), std::sqrt(mean_var)};
-}
-
 }  // namespace
 
 TEST_CASE("with noise on two time scales, one first-order part leaves a slow coefficient's standard error at half its scatter", "[sweep]") {
   // Why tune fits two parts (thermal_identify.cpp): measured 0.55x.
-  const Scatter one = wave_scatter(tune::NoiseParts::one, 13);
+  const Scatter one = wave_scatter(two_scale_noise, tune::NoiseParts::one, 13);
   INFO("scatter sd " << one.scatter_sd << ", mean standard error " << one.mean_se);
   CHECK(one.mean_se < 0.7 * one.scatter_sd);
 }
@@ -164,7 +151,7 @@ TEST_CASE("with noise on two time scales, two first-order parts give a slow coef
   // Measured 0.87x: the slower part's time constant is read from one
   // 3000-row record whose wave takes in some of it (fitted 90..2500 rows
   // for a truth of 300).
-  const Scatter two = wave_scatter(tune::NoiseParts::two, 13);
+  const Scatter two = wave_scatter(two_scale_noise, tune::NoiseParts::two, 13);
   INFO("scatter sd " << two.scatter_sd << ", mean standard error " << two.mean_se);
   CHECK(two.mean_se == Approx(two.scatter_sd).epsilon(0.2));
 }

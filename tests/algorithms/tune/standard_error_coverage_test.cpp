@@ -19,12 +19,11 @@
 #include "gyrotc/algorithms/tune/thermal_identify.hpp"
 #include "gyrotc/algorithms/tune/thermal_model.hpp"
 #include "gyrotc_catch.hpp"
+#include "sensor_steps.hpp"
 
 using namespace gyrotc;
 
 namespace {
-
-double quantise(double c) { return std::nearbyint(c * 16.0) / 16.0; }
 
 // Near what tune finds on the plant simulator (docs/TUNING.md), with a rail
 // the experiment's full current reaches.
@@ -61,13 +60,13 @@ tune::TuneRecord record(std::uint64_t seed, SensorNoise noise) {
   tune::TuneRecord r;
   const double phi = std::exp(-kStepS / noise.tau_s);
   double ar = noise.sd_c * normal(rng);
-  double reading = quantise(x.casing_c + ar);
+  double reading = test::ds18b20_steps_c(x.casing_c + ar);
   double pending = reading;
   double command = 0.0;
   for (int q = 0;; ++q) {
     const double t = q * kStepS;
     ar = phi * ar + noise.sd_c * std::sqrt(1.0 - phi * phi) * normal(rng);
-    if (q % 4 == 0) pending = quantise(x.casing_c + ar);
+    if (q % 4 == 0) pending = test::ds18b20_steps_c(x.casing_c + ar);
     if (q % 4 == 3) reading = pending;
     if (q % 8 == 0 && q > 0) {
       const control::TecProgramOutput o = experiment.next({t, reading, kRoomC, 55.0, -1.0, 1.0});

@@ -20,14 +20,13 @@
 #include "gyrotc/algorithms/tune/experiment.hpp"
 #include "gyrotc/algorithms/tune/thermal_identify.hpp"
 #include "gyrotc_catch.hpp"
+#include "sensor_steps.hpp"
 
 using namespace gyrotc;
 using tune::ThermalFit;
 using tune::TuneRecord;
 
 namespace {
-
-double quantise_to_lsb(double c) { return std::nearbyint(c * 16.0) / 16.0; }
 
 // What a board records while the experiment runs on the plant simulator: the
 // DS18B20 converts every second (the reading reflects the start of the
@@ -41,16 +40,16 @@ TuneRecord plant_record(model::PlantParams p, double room_c, bool with_ambient =
   plant.set_tec_enabled(true);
   tune::IdentificationExperiment experiment;
   TuneRecord r;
-  double reading = quantise_to_lsb(plant.casing_c());
+  double reading = test::ds18b20_steps_c(plant.casing_c());
   double command = 0.0;
   constexpr double kStepS = 0.25;
   double pending = reading;
   for (int q = 0;; ++q) {
     const double t = q * kStepS;
-    if (q % 4 == 0) pending = quantise_to_lsb(plant.casing_c());  // a conversion starts
+    if (q % 4 == 0) pending = test::ds18b20_steps_c(plant.casing_c());  // a conversion starts
     if (q % 4 == 3) reading = pending;                      // ... and arrives 0.75 s later
     if (q % 8 == 0 && q > 0) {
-      control::TecProgramInput in{t, reading, with_ambient ? quantise_to_lsb(room_c) : std::nan(""), 55.0,
+      control::TecProgramInput in{t, reading, with_ambient ? test::ds18b20_steps_c(room_c) : std::nan(""), 55.0,
                                   -p.current_limit_a, p.current_limit_a};
       const control::TecProgramOutput o = experiment.next(in);
       if (o.finished) break;
@@ -61,7 +60,7 @@ TuneRecord plant_record(model::PlantParams p, double room_c, bool with_ambient =
       r.time_s.push_back(t);
       r.sensor_c.push_back(reading);
       r.tec_a.push_back(command);
-      if (with_ambient) r.ambient_c.push_back(quantise_to_lsb(room_c));
+      if (with_ambient) r.ambient_c.push_back(test::ds18b20_steps_c(room_c));
     }
     plant.advance(kStepS);
   }
@@ -151,9 +150,9 @@ struct ThreeNode {
       const double now = k;
       const double room = room_c + std::sin(now / 7200.0 * 2.0 * 3.14159265358979);
       noise = 0.95 * noise + 0.01 * std::sqrt(1.0 - 0.95 * 0.95) * normal(rng);
-      const double reading = quantise_to_lsb(sensed + noise);
+      const double reading = test::ds18b20_steps_c(sensed + noise);
       if (k % 2 == 0) {
-        control::TecProgramInput in{now, reading, quantise_to_lsb(room), 55.0, -1.0, 1.0};
+        control::TecProgramInput in{now, reading, test::ds18b20_steps_c(room), 55.0, -1.0, 1.0};
         const control::TecProgramOutput o = experiment.next(in);
         if (o.finished) break;
         command = o.current_a;
@@ -161,7 +160,7 @@ struct ThreeNode {
       out.time_s.push_back(now);
       out.sensor_c.push_back(reading);
       out.tec_a.push_back(command);
-      out.ambient_c.push_back(quantise_to_lsb(room));
+      out.ambient_c.push_back(test::ds18b20_steps_c(room));
       step_1s(command, room, t, sensed);
     }
     return out;
@@ -257,9 +256,9 @@ LoopResult fig26_on(const ThreeNode& unit, const tune::PidGains& gains, double f
   LoopResult out;
   for (int k = 0; k < 17460; ++k) {
     const double room = ambient_at(k);
-    if (k % 10 == 0) ambient_reading = quantise_to_lsb(room);
+    if (k % 10 == 0) ambient_reading = test::ds18b20_steps_c(room);
     if (k % 2 == 0 && k > 0) {
-      const double reading = quantise_to_lsb(sensed);
+      const double reading = test::ds18b20_steps_c(sensed);
       const control::CurrentRange range = control::applied_range(-1.0, 1.0, rail, reading, ambient_reading);
       command = control::pid_current_a(pid, reading, 55.0, control::feed_forward_a(ff_a_per_c, 55.0, ambient_reading),
                                        range);
@@ -397,7 +396,7 @@ TEST_CASE("a record where the current has no effect on the casing is refused") {
   for (int k = 0; k < 2400; ++k) {
     t += step(rng);
     r.time_s.push_back(k);
-    r.sensor_c.push_back(quantise_to_lsb(t));
+    r.sensor_c.push_back(test::ds18b20_steps_c(t));
     r.tec_a.push_back((k / 45) % 3 == 0 ? 0.6 : -0.2);
     r.ambient_c.push_back(20.0);
   }

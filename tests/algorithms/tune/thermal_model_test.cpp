@@ -8,10 +8,12 @@
 #include "gyrotc/algorithms/model/plant.hpp"
 #include "gyrotc/algorithms/tune/thermal_model.hpp"
 #include "gyrotc_catch.hpp"
+#include "plant_drive.hpp"
 
 using gyrotc::model::Plant;
 using gyrotc::model::PlantParams;
 using namespace gyrotc::tune;
+using gyrotc::test::drive_v_for;
 
 namespace {
 
@@ -34,8 +36,6 @@ ThermalModel model_of(const PlantParams& p) {
   m.rail_a = (p.supply_pos_v - p.rail_headroom_v) / p.tec_resistance_ohm;
   return m;
 }
-
-double drive_v_for(const PlantParams& p, double current_a) { return 0.5 * p.dac_vref_v + current_a / p.gain_a_per_v; }
 
 }  // namespace
 

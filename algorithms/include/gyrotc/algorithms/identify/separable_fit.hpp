@@ -60,6 +60,10 @@ Eigen::MatrixXd model_jacobian(const SeparableModel& model, const std::vector<do
 // (J^T J)^-1 with columns scaled to unit norm and a tiny ridge.
 Eigen::MatrixXd inverse_normal(const Eigen::MatrixXd& jacobian);
 
+// Parameter i's standard error from a covariance: the square root of its
+// diagonal element (0 where rounding left that element negative).
+double standard_error(const Eigen::MatrixXd& covariance, Eigen::Index i);
+
 // Only the linear part, theta fixed: for cross-validation refits.
 Eigen::VectorXd predict_with_theta(const Eigen::VectorXd& y, const SeparableModel& model,
                                    const std::vector<double>& theta,
