@@ -2,18 +2,13 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstdio>
 #include <map>
 #include <stdexcept>
 
+#include "gyrotc/algorithms/text/printf_string.hpp"
+
 namespace gyrotc::fit {
 namespace {
-
-std::string format(const char* fmt, double a, double b = 0.0, double c = 0.0, double d = 0.0) {
-  char buf[256];
-  std::snprintf(buf, sizeof buf, fmt, a, b, c, d);
-  return buf;
-}
 
 struct Bin {
   std::size_t count = 0;
@@ -69,11 +64,11 @@ std::vector<ScreenFinding> screen_calibration_record(const RecordSamples& record
     if (most != held_at.end()) {
       const double fraction = static_cast<double>(most->second) / static_cast<double>(n);
       if (fraction > limits.max_held_fraction) {
-        findings.push_back(
-            {ScreenCheck::held,
-             format("the TEC held the casing within %g C of the setpoint %g C for %.0f %% of the record: a "
-                    "closed-loop run, whose other temperatures are passed in a hurry on the way there",
-                    limits.hold_band_c, most->first, 100.0 * fraction)});
+        findings.push_back({ScreenCheck::held,
+                            text::printf_string(
+                                "the TEC held the casing within %g C of the setpoint %g C for %.0f %% of the record: a "
+                                "closed-loop run, whose other temperatures are passed in a hurry on the way there",
+                                limits.hold_band_c, most->first, 100.0 * fraction)});
       }
     }
   }
@@ -89,11 +84,11 @@ std::vector<ScreenFinding> screen_calibration_record(const RecordSamples& record
 
   const auto [lo, hi] = std::minmax_element(record.sensor_c.begin(), record.sensor_c.end());
   if (*hi - *lo < limits.min_span_c || bins.size() < limits.min_bins) {
-    findings.push_back({ScreenCheck::span,
-                        format("the casing spans %.1f .. %.1f C in %g bins of %g C", *lo, *hi,
-                               static_cast<double>(bins.size()), limits.bin_width_c) +
-                            format("; the model needs at least %g C and %g bins", limits.min_span_c,
-                                   static_cast<double>(limits.min_bins))});
+    findings.push_back(
+        {ScreenCheck::span, text::printf_string("the casing spans %.1f .. %.1f C in %g bins of %g C", *lo, *hi,
+                                                static_cast<double>(bins.size()), limits.bin_width_c) +
+                                text::printf_string("; the model needs at least %g C and %g bins", limits.min_span_c,
+                                                    static_cast<double>(limits.min_bins))});
   }
 
   std::vector<std::size_t> counts;
@@ -105,9 +100,10 @@ std::vector<ScreenFinding> screen_calibration_record(const RecordSamples& record
   if (static_cast<double>(fullest->second.count) > limits.max_bin_ratio * median) {
     findings.push_back(
         {ScreenCheck::uneven,
-         format("the %g C bin holds %g samples, %.0f times the median bin's %g: the points' noise differs that much",
-                static_cast<double>(fullest->first) * limits.bin_width_c, static_cast<double>(fullest->second.count),
-                static_cast<double>(fullest->second.count) / median, median)});
+         text::printf_string(
+             "the %g C bin holds %g samples, %.0f times the median bin's %g: the points' noise differs that much",
+             static_cast<double>(fullest->first) * limits.bin_width_c, static_cast<double>(fullest->second.count),
+             static_cast<double>(fullest->second.count) / median, median)});
   }
 
   // A bin is unsettled when its samples moved on average one way faster than
@@ -135,11 +131,12 @@ std::vector<ScreenFinding> screen_calibration_record(const RecordSamples& record
   if (unsettled > 0) {
     findings.push_back(
         {ScreenCheck::unsettled,
-         format("in %g of %g bins the casing moved faster than %g C/min", static_cast<double>(unsettled),
-                static_cast<double>(bins.size()), limits.max_rate_c_per_min) +
-             format(" (%.2f C/min at %g C; a bin crossed both ways at one rate may take up to %g C/min): the die "
-                    "lags the sensor, so those bins' bias belongs to another temperature",
-                    worst_rate, worst_bin_c, limits.max_crossing_rate_c_per_min)});
+         text::printf_string("in %g of %g bins the casing moved faster than %g C/min", static_cast<double>(unsettled),
+                             static_cast<double>(bins.size()), limits.max_rate_c_per_min) +
+             text::printf_string(
+                 " (%.2f C/min at %g C; a bin crossed both ways at one rate may take up to %g C/min): the die "
+                 "lags the sensor, so those bins' bias belongs to another temperature",
+                 worst_rate, worst_bin_c, limits.max_crossing_rate_c_per_min)});
   }
   return findings;
 }

@@ -133,13 +133,21 @@ Plant::Plant(const PlantParams& params, std::uint64_t seed)
   update_bias();
 }
 
+double stage_current_a(const PlantParams& params, double dac_v) noexcept {
+  return (dac_v - 0.5 * params.dac_vref_v) * params.gain_a_per_v;
+}
+
+double stage_drive_v(const PlantParams& params, double current_a) noexcept {
+  return 0.5 * params.dac_vref_v + current_a / params.gain_a_per_v;
+}
+
 void Plant::set_tec_drive_v(double dac_v) noexcept {
   if (!std::isfinite(dac_v)) dac_v = 0.5 * params_.dac_vref_v;
   // AD5060: code = V / LSB, straight binary 0 .. 2^N - 1.
   const double max_code = std::ldexp(1.0, params_.dac_bits) - 1.0;
   const double code = std::clamp(std::round(dac_v / dac_lsb_v_), 0.0, max_code);
   const double out_v = code * dac_lsb_v_;
-  tec_command_a_ = (out_v - 0.5 * params_.dac_vref_v) * params_.gain_a_per_v;
+  tec_command_a_ = stage_current_a(params_, out_v);
   update_stage();
 }
 

@@ -100,45 +100,47 @@ ResidualNoise fit_residual_noise(const Eigen::MatrixXd& jacobian, const Eigen::V
 
   // Nonnegative least squares over the columns (white, a part at taus[a],
   // optionally one at taus[b]): each subset of the columns solved
-  // unconstrained, the best whose variances are all >= 0 kept.
+  // unconstrained, the best whose variances are all >= 0 kept. A subset
+  // without the second part is solved once per first part, not once per pair.
   const auto m = static_cast<Eigen::Index>(lags.size());
   const Eigen::Map<const Eigen::VectorXd> y(observed.data(), m);
   ResidualNoise best;
   double best_cost = std::numeric_limits<double>::infinity();
-  auto consider = [&](std::size_t a, std::optional<std::size_t> b) {
-    const std::array<const std::vector<double>*, 3> columns{&white, &slows[a], b ? &slows[*b] : nullptr};
-    const int count = b ? 3 : 2;
-    for (int subset = 1; subset < (1 << count); ++subset) {
-      std::vector<int> used;
-      for (int c = 0; c < count; ++c) {
-        if (subset & (1 << c)) used.push_back(c);
-      }
-      Eigen::MatrixXd x(m, static_cast<Eigen::Index>(used.size()));
-      for (Eigen::Index c = 0; c < x.cols(); ++c) {
-        x.col(c) = Eigen::Map<const Eigen::VectorXd>(columns[static_cast<std::size_t>(used[static_cast<std::size_t>(c)])]->data(), m);
-      }
-      const Eigen::VectorXd variance = x.colPivHouseholderQr().solve(y);
-      if (!variance.allFinite() || (variance.array() < 0.0).any()) continue;
-      const double cost = (y - x * variance).squaredNorm();
-      if (!(cost < best_cost)) continue;
-      best_cost = cost;
-      best = {};
-      for (Eigen::Index c = 0; c < x.cols(); ++c) {
-        switch (used[static_cast<std::size_t>(c)]) {
-          case 0: best.white_var = variance(c); break;
-          case 1: best.slow_var = variance(c); best.slow_tau_rows = taus[a]; break;
-          default: best.slower_var = variance(c); best.slower_tau_rows = taus[*b]; break;
-        }
+  Eigen::MatrixXd x(m, 3);
+  // Columns 0: white, 1: slows[a], 2: slows[b]; `used` is a bit set of them.
+  auto solve = [&](std::size_t a, std::optional<std::size_t> b, int used) {
+    Eigen::Index cols = 0;
+    std::array<int, 3> which{};
+    for (int c = 0; c < 3; ++c) {
+      if (!(used & (1 << c))) continue;
+      const std::vector<double>& column = c == 0 ? white : slows[c == 1 ? a : *b];
+      x.col(cols) = Eigen::Map<const Eigen::VectorXd>(column.data(), m);
+      which[static_cast<std::size_t>(cols++)] = c;
+    }
+    const auto xs = x.leftCols(cols);
+    const Eigen::VectorXd variance = xs.colPivHouseholderQr().solve(y);
+    if (!variance.allFinite() || (variance.array() < 0.0).any()) return;
+    const double cost = (y - xs * variance).squaredNorm();
+    if (!(cost < best_cost)) return;
+    best_cost = cost;
+    best = {};
+    for (Eigen::Index c = 0; c < cols; ++c) {
+      switch (which[static_cast<std::size_t>(c)]) {
+        case 0: best.white_var = variance(c); break;
+        case 1: best.slow_var = variance(c); best.slow_tau_rows = taus[a]; break;
+        default: best.slower_var = variance(c); best.slower_tau_rows = taus[*b]; break;
       }
     }
   };
   for (std::size_t a = 0; a < taus.size(); ++a) {
-    if (parts == NoiseParts::one) {
-      consider(a, std::nullopt);
-      continue;
-    }
     // 1.25^2 apart at least: neighbours of the grid are nearly one column.
-    for (std::size_t b = a + 2; b < taus.size(); ++b) consider(a, b);
+    const bool pairs = parts == NoiseParts::two;
+    if (pairs && a + 2 >= taus.size()) continue;
+    for (int used = 1; used < 4; ++used) solve(a, std::nullopt, used);
+    if (!pairs) continue;
+    for (std::size_t b = a + 2; b < taus.size(); ++b) {
+      for (int used = 4; used < 8; ++used) solve(a, b, used);
+    }
   }
   // A second part that came out 0 leaves the fit's one part as the first.
   if (best.slow_var == 0.0 && best.slower_var > 0.0) {

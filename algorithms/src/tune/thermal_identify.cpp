@@ -2,15 +2,15 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstdio>
 #include <functional>
 #include <limits>
-#include <stdexcept>
 #include <span>
+#include <stdexcept>
 #include <string>
 
 #include "gyrotc/algorithms/identify/residual_stats.hpp"
 #include "gyrotc/algorithms/identify/separable_fit.hpp"
+#include "gyrotc/algorithms/text/printf_string.hpp"
 
 namespace gyrotc::tune {
 namespace {
@@ -83,12 +83,6 @@ enum Index : std::size_t {
   kLogRail, kCasing0, kShell0, kAmbient, kCount
 };
 
-std::string fmt(const char* format, double a, double b = 0.0, double c = 0.0, double d = 0.0) {
-  char buf[320];
-  std::snprintf(buf, sizeof buf, format, a, b, c, d);
-  return buf;
-}
-
 // Parameters the data pin down each on their own (strongly correlated pairs
 // make the search crawl): the internal heat as the casing's rise above the
 // ambient with the TEC off (not against the loss it is divided by), the
@@ -130,38 +124,43 @@ void check_record(const TuneRecord& r, double experiment_scale) {
       throw std::invalid_argument("time_s does not increase at row " + std::to_string(k + 1));
     }
     if (k > 0 && r.time_s[k] - r.time_s[k - 1] > kMaxGapS) {
-      throw std::invalid_argument(fmt("a gap of %.0f s in the record at time_s = %.0f: tune needs a continuous "
-                                      "record (rows at most 30 s apart)",
-                                      r.time_s[k] - r.time_s[k - 1], r.time_s[k - 1]));
+      throw std::invalid_argument(
+          text::printf_string("a gap of %.0f s in the record at time_s = %.0f: tune needs a continuous "
+                              "record (rows at most 30 s apart)",
+                              r.time_s[k] - r.time_s[k - 1], r.time_s[k - 1]));
     }
   }
   const double duration = r.time_s.back() - r.time_s.front();
   if (duration < kMinDurationS * experiment_scale) {
     if (experiment_scale == 1.0) {
-      throw std::invalid_argument(fmt("the record lasts %.0f s; tune needs at least 30 min of the identification "
-                                      "experiment (`gyrotc record --experiment tune` takes about 2 h)",
-                                      duration));
+      throw std::invalid_argument(
+          text::printf_string("the record lasts %.0f s; tune needs at least 30 min of the identification "
+                              "experiment (`gyrotc record --experiment tune` takes about 2 h)",
+                              duration));
     }
-    throw std::invalid_argument(fmt("the record lasts %.0f s; tune needs at least %.0f s of an identification "
-                                    "experiment scaled by %.3g (30 min x the scale)",
-                                    duration, kMinDurationS * experiment_scale, experiment_scale));
+    throw std::invalid_argument(
+        text::printf_string("the record lasts %.0f s; tune needs at least %.0f s of an identification "
+                            "experiment scaled by %.3g (30 min x the scale)",
+                            duration, kMinDurationS * experiment_scale, experiment_scale));
   }
   const auto [imin, imax] = std::minmax_element(r.tec_a.begin(), r.tec_a.end());
   if (*imax - *imin < kMinCurrentRangeA) {
-    throw std::invalid_argument(fmt("no excitation: tec_a stays within %.3f .. %.3f A, so nothing tells the "
-                                    "current's effect (record `gyrotc record --experiment tune`)",
-                                    *imin, *imax));
+    throw std::invalid_argument(
+        text::printf_string("no excitation: tec_a stays within %.3f .. %.3f A, so nothing tells the "
+                            "current's effect (record `gyrotc record --experiment tune`)",
+                            *imin, *imax));
   }
   const auto [tmin, tmax] = std::minmax_element(r.sensor_c.begin(), r.sensor_c.end());
   if (*tmax - *tmin < kMinTemperatureRangeC) {
-    throw std::invalid_argument(fmt("flat record: sensor_c stays within %.3f .. %.3f C, so the casing did not "
-                                    "respond to the current (is the TEC connected, the casing sensor the right "
-                                    "one?)",
-                                    *tmin, *tmax));
+    throw std::invalid_argument(
+        text::printf_string("flat record: sensor_c stays within %.3f .. %.3f C, so the casing did not "
+                            "respond to the current (is the TEC connected, the casing sensor the right "
+                            "one?)",
+                            *tmin, *tmax));
   }
   if (*tmax >= 125.0 || *tmin <= -55.0) {
-    throw std::invalid_argument(fmt("saturated record: sensor_c reaches %.1f C, the DS18B20's end of range",
-                                    *tmax >= 125.0 ? *tmax : *tmin));
+    throw std::invalid_argument(text::printf_string(
+        "saturated record: sensor_c reaches %.1f C, the DS18B20's end of range", *tmax >= 125.0 ? *tmax : *tmin));
   }
   // A current that sits at one extreme for most of the record: the unit never
   // came under the experiment's control (an unreachable setpoint, a stage
@@ -172,10 +171,11 @@ void check_record(const TuneRecord& r, double experiment_scale) {
     for (double i : r.tec_a) at += std::fabs(i - extreme) <= 0.02 * std::fabs(extreme) ? 1 : 0;
     const double share = static_cast<double>(at) / static_cast<double>(n);
     if (share > kMaxShareAtLimit) {
-      throw std::invalid_argument(fmt("saturated experiment: tec_a sits at %.3f A in %.0f %% of the rows, so "
-                                      "the casing never came under the experiment's control (is the setpoint "
-                                      "reachable at this ambient?)",
-                                      extreme, 100.0 * share));
+      throw std::invalid_argument(
+          text::printf_string("saturated experiment: tec_a sits at %.3f A in %.0f %% of the rows, so "
+                              "the casing never came under the experiment's control (is the setpoint "
+                              "reachable at this ambient?)",
+                              extreme, 100.0 * share));
     }
   }
 }
@@ -299,7 +299,7 @@ std::vector<double> first_guess(const TuneRecord& r, const std::vector<double>& 
 
 ThermalFit identify_thermal(const TuneRecord& record, double experiment_scale) {
   if (!(experiment_scale > 0.0 && experiment_scale <= 1.0)) {
-    throw std::invalid_argument(fmt("experiment scale %.3g: must be within (0, 1]", experiment_scale));
+    throw std::invalid_argument(text::printf_string("experiment scale %.3g: must be within (0, 1]", experiment_scale));
   }
   check_record(record, experiment_scale);
   const std::size_t n = record.time_s.size();
@@ -622,17 +622,19 @@ ThermalFit identify_thermal(const TuneRecord& record, double experiment_scale) {
   if (!(screen_t > kMinPeltierTRatio) && fit.rms_c > 2.0 * fit.quantisation_rms_c) {
     // A fit far above the floor: the current's effect may be hidden by what
     // the model cannot follow rather than absent; say both.
-    throw std::invalid_argument(fmt("the TEC current has no measurable effect on the casing temperature beyond what "
-                                    "the model cannot follow (Peltier term %.3g, %.2g times its standard error; "
-                                    "residual rms %.3f C, %.0fx the DS18B20's quantisation): is the TEC connected, the "
-                                    "casing sensor on the casing, and did the experiment run undisturbed?",
-                                    peltier.value, screen_t, fit.rms_c, fit.rms_c / fit.quantisation_rms_c));
+    throw std::invalid_argument(
+        text::printf_string("the TEC current has no measurable effect on the casing temperature beyond what "
+                            "the model cannot follow (Peltier term %.3g, %.2g times its standard error; "
+                            "residual rms %.3f C, %.0fx the DS18B20's quantisation): is the TEC connected, the "
+                            "casing sensor on the casing, and did the experiment run undisturbed?",
+                            peltier.value, screen_t, fit.rms_c, fit.rms_c / fit.quantisation_rms_c));
   }
   if (!(screen_t > kMinPeltierTRatio)) {
-    throw std::invalid_argument(fmt("the TEC current has no measurable effect on the casing temperature (Peltier "
-                                    "term %.3g, %.2g times its standard error): is the TEC connected and the casing "
-                                    "sensor on the casing?",
-                                    peltier.value, screen_t));
+    throw std::invalid_argument(
+        text::printf_string("the TEC current has no measurable effect on the casing temperature (Peltier "
+                            "term %.3g, %.2g times its standard error): is the TEC connected and the casing "
+                            "sensor on the casing?",
+                            peltier.value, screen_t));
   }
   return fit;
 }

@@ -9,12 +9,12 @@
 #include <nlohmann/json.hpp>
 #include <toml++/toml.h>
 
-#include "gyrotc/app/formats/board_config.hpp"
-#include "gyrotc/app/formats/calibration_in_use.hpp"
+#include "gyrotc/algorithms/text/printf_string.hpp"
 #include "gyrotc/app/cli/commands.hpp"
 #include "gyrotc/app/daemon/config.hpp"
+#include "gyrotc/app/formats/board_config.hpp"
+#include "gyrotc/app/formats/calibration_in_use.hpp"
 #include "gyrotc/app/support/errors.hpp"
-#include "gyrotc/app/support/text_format.hpp"
 #include "gyrotc/hal/linux/gpio_persistence.hpp"
 
 namespace gyrotc::app {
@@ -34,7 +34,9 @@ DeviceResult probe_sensor(const char* device, hal::TemperatureSensor& sensor) {
   const hal::TemperatureReading reading = sensor.read();
   const std::string name(sensor.name());
   if (reading.valid) {
-    return {device, "ok", printf_string("%.4f C (%s)", reading.temp_c, name.c_str()),
+    return {device,
+            "ok",
+            text::printf_string("%.4f C (%s)", reading.temp_c, name.c_str()),
             {{"temp_c", reading.temp_c}, {"sensor", name}}};
   }
   return {device, "error", name + ": " + std::string(hal::to_string(reading.fault))};
@@ -52,12 +54,13 @@ DeviceResult probe_adc(hal::Board& board, double sample_period_s, double timeout
     if (board.adc.read(timeout_s)) ++read;
   }
   const hal::AdcReadStats stats = board.adc.stats();
-  return {"adc", "ok",
-          printf_string("code %d = %.4f mV%s; %d of %d reads: late reads %llu, spurious edges %llu, missed conversions %llu",
-                        sample->code, sample->gyro_mv, sample->clipped ? " (clipped at full scale)" : "", read, burst,
-                        static_cast<unsigned long long>(stats.late_reads),
-                        static_cast<unsigned long long>(stats.spurious_edges),
-                        static_cast<unsigned long long>(stats.missed_conversions)),
+  return {"adc",
+          "ok",
+          text::printf_string(
+              "code %d = %.4f mV%s; %d of %d reads: late reads %llu, spurious edges %llu, missed conversions %llu",
+              sample->code, sample->gyro_mv, sample->clipped ? " (clipped at full scale)" : "", read, burst,
+              static_cast<unsigned long long>(stats.late_reads), static_cast<unsigned long long>(stats.spurious_edges),
+              static_cast<unsigned long long>(stats.missed_conversions)),
           {{"code", sample->code},
            {"gyro_mv", sample->gyro_mv},
            {"clipped", sample->clipped},
@@ -92,9 +95,10 @@ DeviceResult probe_opa548(hal::Board& board) {
   if (*status == hal::ThermalStatus::shutdown) {
     return {"opa548", "error", "thermal shutdown: E/S read low while enabled at 0 A; disabled again"};
   }
-  return {"opa548", "ok",
-          printf_string("thermal flag %s (enabled %.0f ms at 0 A to read E/S), disabled again",
-                        std::string(hal::to_string(*status)).c_str(), kThermalLookS * 1e3),
+  return {"opa548",
+          "ok",
+          text::printf_string("thermal flag %s (enabled %.0f ms at 0 A to read E/S), disabled again",
+                              std::string(hal::to_string(*status)).c_str(), kThermalLookS * 1e3),
           {{"thermal", std::string(hal::to_string(*status))}, {"enabled_for_s", kThermalLookS}}};
 }
 

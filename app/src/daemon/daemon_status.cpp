@@ -9,8 +9,8 @@
 #include <cstdio>
 #include <cstring>
 
+#include "gyrotc/algorithms/text/printf_string.hpp"
 #include "gyrotc/app/runtime/controller.hpp"
-#include "gyrotc/app/support/text_format.hpp"
 
 namespace gyrotc::app {
 namespace {
@@ -67,22 +67,22 @@ std::string status_sentence(const DaemonStatus& s) {
   if (state == "fault") {
     std::string names;
     for (const std::string& n : names_of(s.flags & kFaultFlags)) names += (names.empty() ? "" : "+") + n;
-    return "fault " + names + printf_string(": casing %.2f °C, TEC %+.2f A", s.casing_c, s.tec_a);
+    return "fault " + names + text::printf_string(": casing %.2f °C, TEC %+.2f A", s.casing_c, s.tec_a);
   }
   if (state == "starting") return "starting: no casing reading yet, TEC off";
   if (state == "experiment")
-    return printf_string("experiment (%s): casing %.2f °C, TEC %+.2f A",
-                         s.experiment.empty() ? "TEC programme" : s.experiment.c_str(), s.casing_c, s.tec_a);
-  if (state == "tec_off") return printf_string("TEC off (compensation only): casing %.2f °C", s.casing_c);
+    return text::printf_string("experiment (%s): casing %.2f °C, TEC %+.2f A",
+                               s.experiment.empty() ? "TEC programme" : s.experiment.c_str(), s.casing_c, s.tec_a);
+  if (state == "tec_off") return text::printf_string("TEC off (compensation only): casing %.2f °C", s.casing_c);
   if (state == "holding") {
-    return printf_string("holding %.2f °C ±%.2f, TEC %+.2f A", s.setpoint_c, s.held_error_c, s.tec_a);
+    return text::printf_string("holding %.2f °C ±%.2f, TEC %+.2f A", s.setpoint_c, s.held_error_c, s.tec_a);
   }
   if (state == "saturated") {
-    return printf_string("saturated: casing %.2f °C for %.2f °C, TEC %+.2f A (the limit)", s.casing_c, s.setpoint_c,
-                         s.tec_a);
+    return text::printf_string("saturated: casing %.2f °C for %.2f °C, TEC %+.2f A (the limit)", s.casing_c,
+                               s.setpoint_c, s.tec_a);
   }
-  return printf_string("%s to %.2f °C: casing %.2f °C, TEC %+.2f A", state.c_str(), s.setpoint_c, s.casing_c,
-                       s.tec_a);
+  return text::printf_string("%s to %.2f °C: casing %.2f °C, TEC %+.2f A", state.c_str(), s.setpoint_c, s.casing_c,
+                             s.tec_a);
 }
 
 std::string status_json(const DaemonStatus& s) {
@@ -148,7 +148,7 @@ std::string prometheus_text(const DaemonStatus& s) {
     out += series + " " +
            (std::isnan(v)   ? std::string("NaN")
             : std::isinf(v) ? (v > 0 ? "+Inf" : "-Inf")
-                            : printf_string("%.9g", v)) +
+                            : text::printf_string("%.9g", v)) +
            "\n";
   };
   metric("gyrotc_up", "gauge",

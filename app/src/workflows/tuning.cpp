@@ -190,7 +190,7 @@ double plant_minimum_warm_up_s(const model::PlantParams& params, double from_c, 
   model::Plant plant(p, 1);
   plant.set_ambient_c(from_c);
   plant.set_tec_enabled(true);
-  plant.set_tec_drive_v(0.5 * p.dac_vref_v + p.current_limit_a / p.gain_a_per_v);
+  plant.set_tec_drive_v(model::stage_drive_v(p, p.current_limit_a));
   constexpr double kStepS = 0.1;
   for (double t = 0.0; t < 4.0 * 3600.0; t += kStepS) {
     if (plant.controlled_c() >= target_c) return t;

@@ -6,11 +6,10 @@
 #include "gyrotc/algorithms/model/plant.hpp"
 #include "gyrotc/algorithms/stats/allan.hpp"
 #include "gyrotc_catch.hpp"
-#include "plant_drive.hpp"
 
 using gyrotc::model::Plant;
 using gyrotc::model::PlantParams;
-using gyrotc::test::drive_v_for;
+using gyrotc::model::stage_drive_v;
 
 namespace {
 
@@ -67,8 +66,8 @@ TEST_CASE("positive TEC current heats the casing and negative current cools it")
   cooling.set_ambient_c(20.0);
   heating.set_tec_enabled(true);
   cooling.set_tec_enabled(true);
-  heating.set_tec_drive_v(drive_v_for(p, 0.5));
-  cooling.set_tec_drive_v(drive_v_for(p, -0.5));
+  heating.set_tec_drive_v(stage_drive_v(p, 0.5));
+  cooling.set_tec_drive_v(stage_drive_v(p, -0.5));
   run(heating, 600.0);
   run(cooling, 600.0);
   CHECK(heating.tec_current_a() == Approx(0.5).margin(1e-3));
@@ -103,7 +102,7 @@ TEST_CASE("the electrical power V I is the heat the TEC adds to the network (fir
     Plant plant(p, 1);
     plant.set_ambient_c(5.0);
     plant.set_tec_enabled(true);
-    plant.set_tec_drive_v(drive_v_for(p, current_a));
+    plant.set_tec_drive_v(stage_drive_v(p, current_a));
     run(plant, 300.0);  // a temperature difference across the module
     const double h = p.max_thermal_step_s;
     const double shell0 = plant.shell_c(), casing0 = plant.casing_c(), die0 = plant.die_c();
@@ -141,7 +140,7 @@ TEST_CASE("the backward-Euler network is stable at the largest step, even with a
   for (Plant* plant : {&a, &b}) {
     plant->set_ambient_c(-30.0);
     plant->set_tec_enabled(true);
-    plant->set_tec_drive_v(drive_v_for(stiff, 0.4));
+    plant->set_tec_drive_v(stage_drive_v(stiff, 0.4));
   }
   double previous_die_c = a.die_c();
   for (int k = 0; k < 200; ++k) {  // 20 000 s
@@ -162,7 +161,7 @@ TEST_CASE("time given in small pieces reaches the same state as one large advanc
   for (Plant* plant : {&pieces, &whole}) {
     plant->set_ambient_c(0.0);
     plant->set_tec_enabled(true);
-    plant->set_tec_drive_v(drive_v_for(p, 0.3));
+    plant->set_tec_drive_v(stage_drive_v(p, 0.3));
   }
   for (int k = 0; k < 100'000; ++k) pieces.advance(1e-3);
   pieces.flush();
@@ -280,7 +279,7 @@ TEST_CASE("named effects switched on in PlantParams act on the plant") {
   for (Plant* plant : {&a, &b}) {
     plant->set_ambient_c(16.0);
     plant->set_tec_enabled(true);
-    plant->set_tec_drive_v(drive_v_for(base, 0.3));
+    plant->set_tec_drive_v(stage_drive_v(base, 0.3));
   }
   run(a, 50'000.0);
   run(b, 50'000.0);
@@ -309,7 +308,7 @@ TEST_CASE("the OPA548 shuts down when its junction overheats and restarts after 
   Plant plant(p, 1);
   plant.set_ambient_c(40.0);
   plant.set_tec_enabled(true);
-  plant.set_tec_drive_v(drive_v_for(p, 1.0));
+  plant.set_tec_drive_v(stage_drive_v(p, 1.0));
   run(plant, 300.0);
   CHECK(plant.opa548_thermal_shutdown());
   CHECK(plant.tec_current_a() == 0.0);

@@ -6,13 +6,12 @@
 #include "gyrotc/algorithms/model/plant.hpp"
 #include "gyrotc/algorithms/model/thermal_network.hpp"
 #include "gyrotc_catch.hpp"
-#include "plant_drive.hpp"
 
 using gyrotc::model::kAmbientNode;
 using gyrotc::model::Plant;
 using gyrotc::model::PlantParams;
+using gyrotc::model::stage_drive_v;
 using gyrotc::model::ThermalNetwork;
-using gyrotc::test::drive_v_for;
 
 namespace {
 
@@ -62,7 +61,7 @@ TEST_CASE("the default plant written as a network simulates as the default plant
     for (Plant* plant : {&a, &b}) {
       plant->set_ambient_c(20.0);
       plant->set_tec_enabled(true);
-      plant->set_tec_drive_v(drive_v_for(p, current_a));
+      plant->set_tec_drive_v(stage_drive_v(p, current_a));
     }
     for (int k = 0; k < 3000; ++k) {
       a.advance(1.0);

@@ -8,12 +8,11 @@
 #include "gyrotc/algorithms/model/plant.hpp"
 #include "gyrotc/algorithms/tune/thermal_model.hpp"
 #include "gyrotc_catch.hpp"
-#include "plant_drive.hpp"
 
 using gyrotc::model::Plant;
 using gyrotc::model::PlantParams;
 using namespace gyrotc::tune;
-using gyrotc::test::drive_v_for;
+using gyrotc::model::stage_drive_v;
 
 namespace {
 
@@ -67,7 +66,7 @@ TEST_CASE("the tune model follows the plant simulator through heating, rail clip
   bool clipped = false;
   for (std::size_t k = 0; k < time_s.size(); ++k) {
     worst = std::max(worst, std::fabs(model_c[k] - plant.casing_c()));
-    plant.set_tec_drive_v(drive_v_for(p, command_a[k]));
+    plant.set_tec_drive_v(stage_drive_v(p, command_a[k]));
     clipped = clipped || plant.tec_limited();
     plant.advance(1.0);
     plant.flush();

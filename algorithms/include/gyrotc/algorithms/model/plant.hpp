@@ -137,6 +137,12 @@ struct PlantParams {
 // physical (non-positive capacity or conductance, limits out of order, ...).
 void validate(const PlantParams& params);
 
+// The OPA548 stage's law, mid-scale = 0 A: the current an AD5060 output
+// commands (before the stage's limits), and the output that commands a
+// current (before the DAC's code grid). Plant::set_tec_drive_v applies the first.
+double stage_current_a(const PlantParams& params, double dac_v) noexcept;
+double stage_drive_v(const PlantParams& params, double current_a) noexcept;
+
 class Plant {
  public:
   Plant(const PlantParams& params, std::uint64_t seed);
