@@ -90,6 +90,11 @@ list(LENGTH passed n_passed)
 if(NOT rc EQUAL 0 OR NOT n_passed EQUAL n)
   message(FATAL_ERROR "run-ptest exited ${rc}, ${n_passed} of ${n} passed:\n${out}\n${err}")
 endif()
+# A board's ptest leaves the statistical sweeps out (minutes each here, and
+# many times that on a board), and says so.
+if(NOT out MATCHES "run-ptest: the statistical sweeps \\(\\[sweep\\]\\) are left out")
+  message(FATAL_ERROR "run-ptest did not say it left the sweeps out:\n${out}")
+endif()
 list(LENGTH tests n_all)
 message(STATUS "run-ptest in ${STAGE}${ptest}: ${n_passed}/${n} PASS (${n_all} executables started)")
 if(SANITIZE)

@@ -18,6 +18,7 @@
 #include "gyrotc_catch.hpp"
 #include "input_error_of.hpp"
 #include "run_command.hpp"
+#include "shared_result.hpp"
 #include "test_paths.hpp"
 
 using gyrotc::test::input_error_of;
@@ -25,7 +26,11 @@ using gyrotc::test::run_command;
 
 namespace {
 
-const std::string kDir = gyrotc::test::scratch_dir() + "/calibrate_" + std::to_string(::getpid());
+const std::string kDir = [] {
+  const std::string dir = gyrotc::test::scratch_dir() + "/calibrate_" + std::to_string(::getpid());
+  std::filesystem::create_directories(dir);
+  return dir;
+}();
 
 // An S-curve falling 50 mV around 30 C (tanh), every 5 C from -40 to 80 C.
 std::string scurve_plant() {
@@ -67,7 +72,6 @@ std::string slow_die_line_plant() {
 
 const std::string& plant_file() {
   static const std::string path = [] {
-    std::filesystem::create_directories(kDir);
     const std::string p = kDir + "/scurve.toml";
     std::ofstream(p) << scurve_plant();
     return p;
@@ -75,15 +79,37 @@ const std::string& plant_file() {
   return path;
 }
 
-// The sweep at 20 C ambient, recorded as a board records it.
+// The sweep at 20 C ambient, recorded as a board records it; made once for
+// every case of this executable (shared_result.hpp), as is its calibration.
 const std::string& selfcal_record() {
   static const std::string path = [] {
-    (void)run_command(gyrotc::app::add_simulate_command, "simulate",
-                      {"--profile", "selfcal", "--ambient-c", "20", "--plant", plant_file(), "--sample-rate-hz", "50",
-                       "--out", kDir + "/selfcal"});
-    return kDir + "/selfcal/record.csv";
+    const std::string dir = gyrotc::test::shared_result("scurve_record", [](const std::string& d) {
+      (void)run_command(gyrotc::app::add_simulate_command, "simulate",
+                        {"--profile", "selfcal", "--ambient-c", "20", "--plant", plant_file(), "--sample-rate-hz", "50",
+                         "--out", d + "/selfcal"});
+    });
+    return dir + "/selfcal/record.csv";
   }();
   return path;
+}
+
+// What calibrate makes of the sweep: the file, and its --json summary.
+struct Calibrated {
+  std::string file;
+  nlohmann::json summary;
+};
+
+const Calibrated& selfcal_calibration() {
+  static const Calibrated calibrated = [] {
+    const std::string dir = gyrotc::test::shared_result("scurve_calibration", [](const std::string& d) {
+      std::ofstream(d + "/calibrate.json")
+          << run_command(gyrotc::app::add_calibrate_command, "calibrate",
+                         {"--data", selfcal_record(), "--out", d + "/selfcal.toml", "--json"});
+    });
+    std::ifstream json(dir + "/calibrate.json");
+    return Calibrated{dir + "/selfcal.toml", nlohmann::json::parse(json)};
+  }();
+  return calibrated;
 }
 
 // The casing held near 10, 21, 32, 43, 54 and 65 C with the TEC off (the
@@ -124,7 +150,6 @@ std::string file_text(const std::string& path) {
 
 const std::string& slow_die_plant_file() {
   static const std::string path = [] {
-    std::filesystem::create_directories(kDir);
     const std::string p = kDir + "/slow_die_bowl.toml";
     std::ofstream(p) << slow_die_bowl_plant();
     return p;
@@ -133,22 +158,26 @@ const std::string& slow_die_plant_file() {
 }
 
 // The slow-die bowl's sweep, and what calibrate makes of it (binned by the
-// die, the lag its passes measure).
+// die, the lag its passes measure), each made once.
 const std::string& slow_die_record() {
   static const std::string path = [] {
-    (void)run_command(gyrotc::app::add_simulate_command, "simulate",
-                      {"--profile", "selfcal", "--ambient-c", "20", "--plant", slow_die_plant_file(),
-                       "--sample-rate-hz", "50", "--out", kDir + "/slow_die"});
-    return kDir + "/slow_die/record.csv";
+    const std::string dir = gyrotc::test::shared_result("slow_die_record", [](const std::string& d) {
+      (void)run_command(gyrotc::app::add_simulate_command, "simulate",
+                        {"--profile", "selfcal", "--ambient-c", "20", "--plant", slow_die_plant_file(),
+                         "--sample-rate-hz", "50", "--out", d + "/slow_die"});
+    });
+    return dir + "/slow_die/record.csv";
   }();
   return path;
 }
 
 const std::string& slow_die_calibration() {
   static const std::string path = [] {
-    const std::string p = kDir + "/slow_die.toml";
-    (void)run_command(gyrotc::app::add_calibrate_command, "calibrate", {"--data", slow_die_record(), "--out", p});
-    return p;
+    const std::string dir = gyrotc::test::shared_result("slow_die_calibration", [](const std::string& d) {
+      (void)run_command(gyrotc::app::add_calibrate_command, "calibrate",
+                        {"--data", slow_die_record(), "--out", d + "/slow_die.toml"});
+    });
+    return dir + "/slow_die.toml";
   }();
   return path;
 }
@@ -171,8 +200,7 @@ std::string filtered_record(const std::string& name, const std::function<bool(do
 }  // namespace
 
 TEST_CASE("calibrate --data fits the self-calibration sweep of an S-curve gyro within 0.05 deg/s where it is held") {
-  const std::string out = kDir + "/selfcal.toml";
-  (void)run_command(gyrotc::app::add_calibrate_command, "calibrate", {"--data", selfcal_record(), "--out", out});
+  const std::string& out = selfcal_calibration().file;
   REQUIRE(std::filesystem::exists(out));
   const double worst_dps = worst_held_bias_dps(out);
   INFO("worst held bias " << worst_dps << " deg/s");
@@ -225,9 +253,7 @@ TEST_CASE("calibrate --install needs --config, the board whose calibration it re
 TEST_CASE("calibrate reports the split of the sweep's passes, largest where the S-curve is steepest") {
   // The die lags the casing: each pass reads the curve a little behind, so
   // the two passes differ most where the curve falls fastest (30 C).
-  const std::string printed = run_command(gyrotc::app::add_calibrate_command, "calibrate",
-                                          {"--data", selfcal_record(), "--out", kDir + "/split.toml", "--json"});
-  const nlohmann::json split = nlohmann::json::parse(printed).at("up_down");
+  const nlohmann::json& split = selfcal_calibration().summary.at("up_down");
   CHECK(split.at("bins").size() > 40);
   CHECK(split.at("max_at_c").get<double>() == Approx(30.0).margin(6.0));
   // Where the curve is nearly flat (below 12 C, above 55 C) the passes agree.
@@ -247,9 +273,7 @@ TEST_CASE("calibrate tells the die's lag from a hysteresis on the sweep: the pla
   // The plant's die: 1.6 J/K on 0.04 W/K to the casing, a 40 s time
   // constant; its gyro has no hysteresis. The S-curve's slope changes sign
   // over the range, so one sweep separates the two.
-  const std::string printed = run_command(gyrotc::app::add_calibrate_command, "calibrate",
-                                          {"--data", selfcal_record(), "--out", kDir + "/lag.toml", "--json"});
-  const nlohmann::json s = nlohmann::json::parse(printed).at("up_down").at("separation");
+  const nlohmann::json& s = selfcal_calibration().summary.at("up_down").at("separation");
   REQUIRE(s.at("separated").get<bool>());
   const double lag = s.at("die_lag_s").get<double>();
   const double lag_se = s.at("die_lag_s_std").get<double>();
@@ -299,7 +323,6 @@ TEST_CASE("a calibration of a slow die is applied at the die's temperature: at t
 }
 
 TEST_CASE("on a straight curve calibrate reads the die's lag off the whole record, and bins and compensates by it") {
-  std::filesystem::create_directories(kDir);
   const std::string plant = kDir + "/slow_die_line.toml";
   std::ofstream(plant) << slow_die_line_plant();
   (void)run_command(gyrotc::app::add_simulate_command, "simulate",
