@@ -345,6 +345,28 @@ std::vector<Scenario> family_c() {
   effect("linear_drift 0.3 mV/h", "linear_drift", [](auto& s) { s.drift_mv_per_h = 0.3; });
   effect("ambient_sensitivity 0.05 mV/C", "ambient_sensitivity", [](auto& s) { s.ambient_mv_per_c = 0.05; },
          {kRateOrAmbient});
+  // Issue 31's two records that an earlier version answered wrong, on
+  // programmes of their own: a 250 s lag with an 8 mV / 600 s warm-up on a
+  // -30 -> 70 -> -30 C triangle under 0.4 mV / 200 s of wander (answered
+  // none: the wander fitted without either effect absorbed both), and a
+  // 9 mV / 700 s warm-up on a -40..80 C staircase (answered
+  // ambiguous:warm_up+linear_drift).
+  out.push_back(series_c("thermal_lag 250 s + warm_up 8 mV, -30..70 C triangle, wander 0.4 mV / 200 s",
+                         "thermal_lag+warm_up", indep::lag_and_warm_up_on_a_triangle(0)));
+  {
+    indep::IndependentSpec s;
+    s.programme = {{0.0, -40.0}};
+    for (double level = -40.0; level < 80.0; level += 20.0) {
+      const double t = s.programme.back().first;
+      s.programme.push_back({t + 3600.0, level});                // a 1 h hold
+      s.programme.push_back({t + 3600.0 + 1200.0, level + 20.0});  // 20 C at 1 C/min
+    }
+    s.programme.push_back({s.programme.back().first + 3600.0, 80.0});
+    s.duration_s = s.programme.back().first;
+    s.warm_up_mv = 9.0;
+    s.warm_up_tau_s = 700.0;
+    out.push_back(series_c("warm_up 9 mV 700 s, -40..80 C staircase", "warm_up", s));
+  }
   // Gaps: right or refused.
   {
     indep::IndependentSpec s;

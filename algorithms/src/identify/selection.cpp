@@ -278,13 +278,15 @@ bool held_out_tie(const std::vector<double>& best, const std::vector<double>& ot
 }
 
 struct Trial {
-  std::string effect;
+  std::string effect;  // what it adds: one effect, or two joined by '+' (a masked pair)
   bool scanned = false;  // a probe with a scan (SelectionProblem::scan)
   double alternatives = 1.0;
-  std::vector<std::string> effects;  // the model's, with this one
+  std::vector<std::string> effects;  // the model's, with what it adds
+  std::vector<std::string> adds;     // what it adds, one name each
   Scored scored;
   CandidateScore score;
-  EffectReadout readout;
+  EffectReadout readout;                // of the last effect it adds
+  std::vector<EffectReadout> readouts;  // of each effect it adds, in the order of `adds`
   HeldOut before;  // the current model's, under this candidate's noise model
   HeldOut after;
   Eigen::VectorXd added_signal;
@@ -343,11 +345,13 @@ double amplitude_long_run_factor(const SelectionProblem& problem, const Scored& 
 // held-out errors, readout, and the decision.
 Trial try_candidate(const SelectionProblem& problem, const Criteria& criteria, const Scored& current,
                     const std::vector<std::vector<bool>>& scored, const std::vector<std::string>& effects,
-                    const std::string& effect, int round, bool probe) {
+                    const std::vector<std::string>& adds, int round, bool probe) {
   Trial trial;
-  trial.effect = effect;
+  const std::string effect = adds.back();
+  trial.effect = join(adds);
+  trial.adds = adds;
   trial.effects = effects;
-  trial.effects.push_back(effect);
+  trial.effects.insert(trial.effects.end(), adds.begin(), adds.end());
   ProbeScan scan;
   if (probe && problem.scan) {
     Eigen::MatrixXd design;
@@ -392,7 +396,7 @@ Trial try_candidate(const SelectionProblem& problem, const Criteria& criteria, c
   const Scored& t = trial.scored;
   CandidateScore& s = trial.score;
   s.round = round;
-  s.effect = effect;
+  s.effect = trial.effect;
 
   const double n = static_cast<double>(problem.y.size());
   // A scanned probe's nonlinear parameters are paid for by the scan's
@@ -415,17 +419,36 @@ Trial try_candidate(const SelectionProblem& problem, const Criteria& criteria, c
   if (probe && !scanned) {
     trial.readout.t_ratio = 1e9;  // a probe has no single amplitude; the test is joint
     trial.readout.in_bounds = true;
+    trial.readouts = {trial.readout};
   } else {
-    trial.readout = problem.readout(effect, trial.effects, t.fit, t.covariance);
-  }
-  if (is_series(problem) && trial.readout.amplitude_index >= 0) {
-    s.long_run_factor = amplitude_long_run_factor(problem, t, trial.readout.amplitude_index);
-    if (trial.readout.second_amplitude_index >= 0) {
-      s.long_run_factor =
-          std::max(s.long_run_factor, amplitude_long_run_factor(problem, t, trial.readout.second_amplitude_index));
+    // Each effect added is read out, and each must hold on its own amplitude
+    // (a pair is as strong as its weaker member): the largest long-run
+    // factor of the amplitudes corrects the evidence, the smallest t-ratio
+    // and every bound are the pair's.
+    double long_run = 1.0;
+    bool amplitudes = false;
+    double t_ratio = std::numeric_limits<double>::infinity();
+    bool in_bounds = true;
+    for (const auto& name : adds) {
+      EffectReadout r = problem.readout(name, trial.effects, t.fit, t.covariance);
+      if (is_series(problem) && r.amplitude_index >= 0) {
+        double f = amplitude_long_run_factor(problem, t, r.amplitude_index);
+        if (r.second_amplitude_index >= 0) f = std::max(f, amplitude_long_run_factor(problem, t, r.second_amplitude_index));
+        r.t_ratio /= std::sqrt(f);
+        long_run = std::max(long_run, f);
+        amplitudes = true;
+      }
+      t_ratio = std::min(t_ratio, r.t_ratio);
+      in_bounds = in_bounds && r.in_bounds;
+      trial.readouts.push_back(std::move(r));
     }
-    s.p_value = chi_square_sf(lr / s.long_run_factor, dk);
-    trial.readout.t_ratio /= std::sqrt(s.long_run_factor);
+    trial.readout = trial.readouts.back();
+    trial.readout.t_ratio = t_ratio;
+    trial.readout.in_bounds = in_bounds;
+    if (amplitudes) {
+      s.long_run_factor = long_run;
+      s.p_value = chi_square_sf(lr / s.long_run_factor, dk);
+    }
   }
   if (scanned) {
     s.p_value = std::min(1.0, s.p_value * scan.alternatives);
@@ -472,6 +495,16 @@ Trial try_candidate(const SelectionProblem& problem, const Criteria& criteria, c
   return trial;
 }
 
+// A candidate that failed, though its amplitude stands clear of its
+// standard error under its own noise and it is in bounds: on a series, the
+// mark of an effect the wander fitted without it has absorbed (with another
+// effect's signal), so that the likelihood gains little from it and its
+// held-out errors hardly fall. A 250 s lag under a warm-up came to t = 10
+// with p = 8e-4.
+bool masked_by_noise(const SelectionProblem& problem, const Criteria& criteria, const CandidateScore& s) {
+  return is_series(problem) && !s.passed && s.t_ratio >= criteria.min_t_ratio && s.in_bounds;
+}
+
 }  // namespace
 
 SelectionResult select_effects(const SelectionProblem& problem, const Criteria& criteria,
@@ -499,12 +532,55 @@ SelectionResult select_effects(const SelectionProblem& problem, const Criteria& 
   std::vector<std::string> probed_current;
   for (int round = 1; round <= static_cast<int>(problem.candidates.size()); ++round) {
     std::vector<Trial> passed;
+    std::vector<Trial> masked;
     for (const auto& effect : problem.candidates) {
       if (std::find(effects.begin(), effects.end(), effect) != effects.end()) continue;
       step();
-      Trial trial = try_candidate(problem, criteria, current, scored, effects, effect, round, false);
+      Trial trial = try_candidate(problem, criteria, current, scored, effects, {effect}, round, false);
       result.tried.push_back(trial.score);
-      if (trial.score.passed) passed.push_back(std::move(trial));
+      if (trial.score.passed) {
+        passed.push_back(std::move(trial));
+      } else if (masked_by_noise(problem, criteria, trial.score)) {
+        masked.push_back(std::move(trial));
+      }
+    }
+    // An effect whose evidence holds but whose held-out errors do not fall
+    // enough may share the residual with another effect: the wander fitted
+    // without either holds the other's signal and tracks it in the held-out
+    // blocks too (issue 31: a 250 s lag with an 8 mV warm-up, answered none).
+    // With the strongest such effect in, a second one may pass on top of it;
+    // the two are then tried together, as one candidate that must pass every
+    // test against the model without them, each on its own amplitude. A pair
+    // is the best of the combinations looked at, and pays for them (as a
+    // scanned probe does) where the probes are weighed against it below.
+    if (passed.empty() && !masked.empty()) {
+      double combinations = 0.0;
+      std::sort(masked.begin(), masked.end(),
+                [](const Trial& a, const Trial& b) { return a.score.delta_bic > b.score.delta_bic; });
+      constexpr std::size_t kMaskedTried = 2;
+      for (std::size_t m = 0; m < std::min(masked.size(), kMaskedTried); ++m) {
+        const std::string& first = masked[m].effect;
+        std::vector<std::string> with_first = effects;
+        with_first.push_back(first);
+        for (const auto& second : problem.candidates) {
+          if (second == first || std::find(effects.begin(), effects.end(), second) != effects.end()) continue;
+          if (in_group(problem, first, second)) continue;
+          const bool done = std::any_of(passed.begin(), passed.end(), [&](const Trial& t) {
+            return std::find(t.adds.begin(), t.adds.end(), first) != t.adds.end() &&
+                   std::find(t.adds.begin(), t.adds.end(), second) != t.adds.end();
+          });
+          if (done) continue;
+          Trial on_top = try_candidate(problem, criteria, masked[m].scored, scored, with_first, {second}, round, false);
+          on_top.score.effect = second + " (with " + first + ")";
+          result.tried.push_back(on_top.score);
+          combinations += 1.0;
+          if (!on_top.score.passed) continue;
+          Trial pair = try_candidate(problem, criteria, current, scored, effects, {first, second}, round, false);
+          result.tried.push_back(pair.score);
+          if (pair.score.passed) passed.push_back(std::move(pair));
+        }
+      }
+      for (Trial& t : passed) t.alternatives = combinations;
     }
     if (passed.empty()) break;
     std::sort(passed.begin(), passed.end(), [](const Trial& a, const Trial& b) {
@@ -537,14 +613,15 @@ SelectionResult select_effects(const SelectionProblem& problem, const Criteria& 
     // only partly follows a step or a relaxation must not be claimed for it.
     // Compared as the candidates are, under the strongest's noise, each
     // probe's score less 2 ln(alternatives) for having been the best of a
-    // scan (in place of a count of its scanned parameters). A probe that does
+    // scan (in place of a count of its scanned parameters), a masked pair's
+    // likewise for the combinations it was found among. A probe that does
     // better ends the search: structure remains.
     if (problem.scan && is_series(problem)) {
       const WanderNoise& reference = passed.front().scored.noise;
       const Scored base = score(problem, current.model, current.fit, &reference);
       bool outdone = false;
       for (const auto& probe : problem.probes) {
-        Trial t = try_candidate(problem, criteria, current, scored, effects, probe, round, true);
+        Trial t = try_candidate(problem, criteria, current, scored, effects, {probe}, round, true);
         if (!t.scanned) continue;
         probed_current.push_back(probe);
         result.tried.push_back(t.score);
@@ -554,7 +631,7 @@ SelectionResult select_effects(const SelectionProblem& problem, const Criteria& 
         const double delta_bic = 2.0 * (common.log_likelihood - base.log_likelihood) / common.lrv_factor -
                                  dk * std::log(static_cast<double>(n) / common.lrv_factor) -
                                  2.0 * std::log(t.alternatives);
-        if (delta_bic > standings.front().delta_bic) {
+        if (delta_bic > standings.front().delta_bic - 2.0 * std::log(standings.front().trial->alternatives)) {
           outdone = true;
           if (std::find(result.unexplained.begin(), result.unexplained.end(), probe) == result.unexplained.end()) {
             result.unexplained.push_back(probe);
@@ -565,26 +642,49 @@ SelectionResult select_effects(const SelectionProblem& problem, const Criteria& 
       probed_current.clear();  // the best candidate joins the model below
     }
     const Trial& best = *standings.front().trial;
-    std::vector<std::string> tied{best.effect};
+    std::vector<std::string> tied = best.adds;
+    const auto tie_in = [&](const std::vector<std::string>& names) {
+      for (const auto& name : names) {
+        if (std::find(tied.begin(), tied.end(), name) == tied.end()) tied.push_back(name);
+      }
+    };
     for (std::size_t i = 1; i < standings.size(); ++i) {
       const Trial& other = *standings[i].trial;
-      const bool tie =
-          standings.front().delta_bic - standings[i].delta_bic < criteria.ambiguous_delta_bic ||
-          std::fabs(correlation(best.added_signal, other.added_signal)) > criteria.max_signal_correlation ||
-          in_group(problem, best.effect, other.effect) ||
-          held_out_tie(standings.front().held.unit_sse, standings[i].held.unit_sse, criteria.ambiguous_heldout_z);
-      if (tie) tied.push_back(other.effect);
+      bool grouped = false;
+      for (const auto& a : best.adds) {
+        for (const auto& b : other.adds) grouped = grouped || in_group(problem, a, b);
+      }
+      const bool collinear =
+          std::fabs(correlation(best.added_signal, other.added_signal)) > criteria.max_signal_correlation;
+      bool tie = collinear || grouped ||
+                 standings.front().delta_bic - standings[i].delta_bic < criteria.ambiguous_delta_bic ||
+                 held_out_tie(standings.front().held.unit_sse, standings[i].held.unit_sse, criteria.ambiguous_heldout_z);
+      // Two effects the record cannot rank are alternatives only if neither
+      // adds to the other: the runner-up passing every test on top of the
+      // best means both are there (a lag and a warm-up, each explaining part
+      // of the same residual), and the next round adds it.
+      if (tie && !collinear && !grouped) {
+        std::vector<std::string> with_best = effects;
+        with_best.insert(with_best.end(), best.adds.begin(), best.adds.end());
+        Trial on_top = try_candidate(problem, criteria, best.scored, scored, with_best, other.adds, round, false);
+        on_top.score.effect = other.effect + " (with " + best.effect + ")";
+        result.tried.push_back(on_top.score);
+        tie = !on_top.score.passed;
+      }
+      if (tie) tie_in(other.adds);
     }
-    AddedEffect added;
-    added.effect = best.effect;
-    added.params = best.readout.params;
-    added.delta_bic = best.score.delta_bic;
-    added.rms_after = std::sqrt(best.scored.fit.sse / static_cast<double>(n));
-    added.fold_rms_before = fold_rms(best.before);
-    added.fold_rms_after = fold_rms(best.after);
-    result.added.push_back(std::move(added));
+    for (std::size_t k = 0; k < best.adds.size(); ++k) {
+      AddedEffect added;
+      added.effect = best.adds[k];
+      added.params = best.readouts[k].params;
+      added.delta_bic = best.score.delta_bic;
+      added.rms_after = std::sqrt(best.scored.fit.sse / static_cast<double>(n));
+      added.fold_rms_before = fold_rms(best.before);
+      added.fold_rms_after = fold_rms(best.after);
+      result.added.push_back(std::move(added));
+    }
     current = best.scored;
-    if (tied.size() > 1) {
+    if (tied.size() > best.adds.size()) {
       std::sort(tied.begin(), tied.end(), [&](const std::string& a, const std::string& b) {
         const auto pa = std::find(problem.candidates.begin(), problem.candidates.end(), a);
         const auto pb = std::find(problem.candidates.begin(), problem.candidates.end(), b);
@@ -593,14 +693,14 @@ SelectionResult select_effects(const SelectionProblem& problem, const Criteria& 
       result.ambiguous = tied;
       break;  // the best of the tied candidates still shows how far the gap closes
     }
-    effects.push_back(best.effect);
+    effects.insert(effects.end(), best.adds.begin(), best.adds.end());
   }
 
   if (result.ambiguous.empty()) {
     for (const auto& probe : problem.probes) {
       step();
       if (std::find(probed_current.begin(), probed_current.end(), probe) != probed_current.end()) continue;
-      Trial trial = try_candidate(problem, criteria, current, scored, effects, probe, 0, true);
+      Trial trial = try_candidate(problem, criteria, current, scored, effects, {probe}, 0, true);
       result.tried.push_back(trial.score);
       if (trial.score.passed &&
           std::find(result.unexplained.begin(), result.unexplained.end(), probe) == result.unexplained.end()) {

@@ -35,6 +35,14 @@ struct Chamber {
 };
 
 Chamber chamber_programme(const IndependentSpec& s, std::mt19937_64& rng) {
+  if (!s.programme.empty()) {
+    Chamber c;
+    for (const auto& [time_s, level_c] : s.programme) {
+      c.t.push_back(time_s);
+      c.level.push_back(level_c);
+    }
+    return c;
+  }
   std::uniform_real_distribution<double> level(s.low_c, s.high_c);
   std::uniform_real_distribution<double> rate(s.min_ramp_c_per_min / 60.0, s.max_ramp_c_per_min / 60.0);
   std::uniform_real_distribution<double> hold(600.0, 2400.0);
@@ -122,6 +130,20 @@ identify::SeriesRecord make_independent_record(const IndependentSpec& s) {
     r.gyro_mv.push_back(mv);
   }
   return r;
+}
+
+IndependentSpec lag_and_warm_up_on_a_triangle(std::uint64_t seed) {
+  IndependentSpec s;
+  s.programme = {{0.0, 20.0},      {1800.0, 20.0},  {7800.0, -30.0},  {9600.0, -30.0}, {21600.0, 70.0},
+                 {23400.0, 70.0}, {35400.0, -30.0}, {37200.0, -30.0}, {43200.0, 20.0}};
+  s.duration_s = 45000.0;
+  s.wander_mv = 0.4;
+  s.wander_tau_s = 200.0;
+  s.lag_tau_s = 250.0;
+  s.warm_up_mv = 8.0;
+  s.warm_up_tau_s = 600.0;
+  s.seed = seed;
+  return s;
 }
 
 }  // namespace gyrotc::identify_test

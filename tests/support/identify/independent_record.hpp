@@ -33,6 +33,9 @@ struct IndependentSpec {
   // The chamber's first level after the 20 C hold (NaN: random, as the
   // rest): a record that must pass a temperature early (the relaxation's).
   double first_level_c = std::numeric_limits<double>::quiet_NaN();
+  // A chamber programme of its own instead (time_s, level_c), linear between
+  // the points and held after the last: a triangle, a staircase.
+  std::vector<std::pair<double, double>> programme;
   double shell_tau_s = 600.0;   // chamber -> shell
   double casing_tau_s = 200.0;  // shell -> casing
   double white_mv = 0.15;   // per sample
@@ -70,5 +73,10 @@ struct IndependentSpec {
 };
 
 identify::SeriesRecord make_independent_record(const IndependentSpec& spec);
+
+// Issue 31's record that an earlier version answered none: a 250 s lag with
+// an 8 mV / 600 s warm-up on a -30 -> 70 -> -30 C triangle (0.5 C/min, 30 min
+// holds, 12.5 h), under 0.4 mV of wander with 200 s correlation.
+IndependentSpec lag_and_warm_up_on_a_triangle(std::uint64_t seed);
 
 }  // namespace gyrotc::identify_test
