@@ -271,6 +271,7 @@ nlohmann::json summary_json(const SimulateOptions& o, const std::string& calibra
   }
   j["bias_uncompensated_max_abs_dps"] = s.bias_uncompensated_max_abs_dps;
   j["bias_compensated_max_abs_dps"] = s.bias_compensated_max_abs_dps;
+  j["calibration_error_max_abs_dps"] = s.calibration_error_max_abs_dps;
   nlohmann::json segments = nlohmann::json::array();
   for (const auto& seg : s.segments) {
     nlohmann::json row;
@@ -283,6 +284,7 @@ nlohmann::json summary_json(const SimulateOptions& o, const std::string& calibra
     if (seg.has_bias) {
       row["bias_uncompensated_dps"] = seg.bias_uncompensated_dps;
       row["bias_compensated_dps"] = seg.bias_compensated_dps;
+      row["calibration_error_dps"] = seg.calibration_error_dps;
     }
     segments.push_back(row);
   }
@@ -324,18 +326,21 @@ void print_text(const nlohmann::json& j, const std::optional<std::string>& csv,
               num(j["bias_uncompensated_max_abs_dps"], "%.3f").c_str());
   std::printf("  bias_compensated_max_abs_dps    %s\n",
               num(j["bias_compensated_max_abs_dps"], "%.3f").c_str());
-  std::printf("  %-14s %-14s %16s %14s %14s %14s\n", "segment", "ambient_c", "max_abs_error_c",
-              "tec_saturated", "bias_unc_dps", "bias_comp_dps");
+  std::printf("  calibration_error_max_abs_dps   %s  (the same without the gyro's noise and effects)\n",
+              num(j["calibration_error_max_abs_dps"], "%.4f").c_str());
+  std::printf("  %-14s %-14s %16s %14s %14s %14s %14s\n", "segment", "ambient_c", "max_abs_error_c",
+              "tec_saturated", "bias_unc_dps", "bias_comp_dps", "cal_error_dps");
   for (const auto& seg : j["segments"]) {
     std::string ambient = seg["ambient_c"].is_array()
                               ? num(seg["ambient_c"][0], "%.0f") + ".." + num(seg["ambient_c"][1], "%.0f")
                               : num(seg["ambient_c"], "%.0f");
-    std::printf("  %-14s %-14s %16s %14s %14s %14s\n", seg["segment"].get<std::string>().c_str(),
+    std::printf("  %-14s %-14s %16s %14s %14s %14s %14s\n", seg["segment"].get<std::string>().c_str(),
                 ambient.c_str(),
                 seg.contains("max_abs_error_c") ? num(seg["max_abs_error_c"], "%.3f").c_str() : "-",
                 seg["tec_saturated"].get<bool>() ? "yes" : "no",
                 seg.contains("bias_uncompensated_dps") ? num(seg["bias_uncompensated_dps"], "%.3f").c_str() : "-",
-                seg.contains("bias_compensated_dps") ? num(seg["bias_compensated_dps"], "%.3f").c_str() : "-");
+                seg.contains("bias_compensated_dps") ? num(seg["bias_compensated_dps"], "%.3f").c_str() : "-",
+                seg.contains("calibration_error_dps") ? num(seg["calibration_error_dps"], "%.4f").c_str() : "-");
   }
   if (j.contains("record") && j["profile"] == "selfcal") {
     const auto& e = j["experiment"];

@@ -262,6 +262,36 @@ RunSummary summarize_run(const std::vector<RecordRow>& rows, const model::Chambe
   return summary;
 }
 
+void add_calibration_error(RunSummary& summary, const std::vector<RecordRow>& rows,
+                           const model::ChamberProfile& profile, const model::PlantParams& plant,
+                           double scale_mv_per_dps) {
+  const auto& segments = profile.segments();  // summarize_run's order, one summary each
+  for (std::size_t i = 0; i < summary.segments.size() && i < segments.size(); ++i) {
+    SegmentSummary& s = summary.segments[i];
+    const model::ProfileSegment* seg = &segments[i];
+    if (!s.has_bias) continue;
+    const double half_s = 0.5 * (seg->start_s + seg->end_s);
+    double sum = 0.0;
+    std::size_t n = 0;
+    for (const auto& row : rows) {
+      if (row.time_s < half_s || row.time_s > seg->end_s || !std::isfinite(row.die_c) ||
+          !std::isfinite(row.gyro_mv) || !std::isfinite(row.rate_dps_compensated)) {
+        continue;
+      }
+      // The compensated rate less what the gyro added to its curve at the
+      // die (noise, named effects): the curve less the calibration at the
+      // temperature the Controller compensated at.
+      const double added_mv = row.gyro_mv - plant.zero_bias.bias_mv(row.die_c) - plant.zero_rate_offset_mv;
+      sum += row.rate_dps_compensated - added_mv / scale_mv_per_dps;
+      ++n;
+    }
+    if (n == 0) continue;
+    s.calibration_error_dps = sum / static_cast<double>(n);
+    summary.calibration_error_max_abs_dps =
+        std::max(summary.calibration_error_max_abs_dps, std::fabs(s.calibration_error_dps));
+  }
+}
+
 SimulationResult run_simulation(const SimulationSetup& setup, const model::ChamberProfile& profile,
                                 const std::function<void(double)>& progress) {
   if (setup.calibration == nullptr) throw std::invalid_argument("run_simulation needs a calibration");
@@ -305,6 +335,7 @@ SimulationResult run_simulation(const SimulationSetup& setup, const model::Chamb
   result.counters = runner.counters();
   result.summary = summarize_run(result.rows, profile, setup.controller.setpoint_c,
                                  setup.scale_mv_per_dps);
+  add_calibration_error(result.summary, result.rows, profile, plant, setup.scale_mv_per_dps);
   return result;
 }
 

@@ -122,3 +122,74 @@ TEST_CASE("a plant file with an unknown key or a bad value names the line and th
   CHECK_THROWS_WITH(parse_plant("[effects.nonsense]\nx = 1.0\n", "p.toml"),
                     Catch::Contains("effects.nonsense"));
 }
+
+namespace {
+
+// A plant whose zero-rate output is the line 40 + slope x T at the die (2
+// points: the natural spline is the line), with a 3 mV offset of its own,
+// held at two ambients with the TEC off; a calibration of that line and
+// offset, plus error_mv, used at the casing DS18B20 (which reads
+// sensor_offset_c high).
+SimulationResult holds_with_line_calibration(double slope_mv_per_c, double error_mv, double sensor_offset_c) {
+  gyrotc::fit::Polynomial line;
+  line.coefficients_mv = {40.0 + 3.0 + error_mv, slope_mv_per_c};
+  line.t_min_c = -40.0;
+  line.t_max_c = 80.0;
+  const gyrotc::fit::BiasModel model = gyrotc::fit::BiasModel::polynomial(line);
+  SimulationSetup setup;
+  setup.plant.zero_bias = gyrotc::model::ZeroBiasCurve({-40.0, 80.0}, {40.0 - 40.0 * slope_mv_per_c, 40.0 + 80.0 * slope_mv_per_c});
+  setup.plant.zero_rate_offset_mv = 3.0;
+  setup.plant.ds18b20_offset_c = sensor_offset_c;
+  setup.controller = controller_preset(ControllerMode::off, setup.plant);
+  setup.calibration = &model;
+  setup.sample_rate_hz = 20.0;
+  setup.seed = 3;
+  const gyrotc::model::ChamberProfile profile(
+      {{"h1", 0.0, 1800.0, 16.0, 16.0}, {"r", 1800.0, 2400.0, 16.0, 30.0}, {"h2", 2400.0, 4200.0, 30.0, 30.0}});
+  return run_simulation(setup, profile);
+}
+
+}  // namespace
+
+TEST_CASE("a simulation's calibration error is the compensated holds without the gyro's noise") {
+  // A flat curve: the reading's steps do not matter.
+  const auto exact = holds_with_line_calibration(0.0, 0.0, 0.0);
+  CHECK(exact.summary.bias_compensated_max_abs_dps > 1e-4);  // the gyro's noise is there
+  CHECK(exact.summary.calibration_error_max_abs_dps < 1e-9);  // and taken out
+  // A calibration 0.8774 mV high compensates 0.1 deg/s too little.
+  const auto off = holds_with_line_calibration(0.0, 0.8774, 0.0);
+  CHECK(off.summary.calibration_error_max_abs_dps == Approx(0.1).epsilon(1e-9));
+  std::size_t holds = 0;
+  for (const auto& s : off.summary.segments) {
+    if (!s.has_bias) continue;
+    ++holds;
+    CHECK(s.calibration_error_dps == Approx(-0.1).epsilon(1e-9));
+  }
+  CHECK(holds == 2);
+}
+
+TEST_CASE("a simulation's calibration error is judged where the Controller compensated: the sensor's reading") {
+  // The exact line, read by a DS18B20 0.5 C high: over each hold's second
+  // half, the curve at the die less the calibration at the reading, about
+  // 0.5 C x 0.5 mV/C = 0.0285 deg/s too much (at the die it would be 0).
+  const auto r = holds_with_line_calibration(0.5, 0.0, 0.5);
+  const auto& segments = r.summary.segments;
+  std::size_t holds = 0;
+  for (std::size_t i = 0; i < segments.size(); ++i) {
+    if (!segments[i].has_bias) continue;
+    ++holds;
+    const double from_s = i == 0 ? 900.0 : 3300.0;  // the second halves of h1 and h2
+    const double to_s = i == 0 ? 1800.0 : 4200.0;
+    double at_reading = 0.0;
+    double n = 0.0;
+    for (const auto& row : r.rows) {
+      if (row.time_s < from_s || row.time_s > to_s) continue;
+      at_reading += (0.5 * row.die_c - 0.5 * row.sensor_c) / 8.774;
+      n += 1.0;
+    }
+    CHECK(segments[i].calibration_error_dps == Approx(at_reading / n).margin(5e-4));
+    // The die trails the casing a little in these holds; the reading has 1/16 C steps.
+    CHECK(segments[i].calibration_error_dps == Approx(-0.25 / 8.774).margin(0.01));
+  }
+  CHECK(holds == 2);
+}

@@ -148,6 +148,11 @@ struct SegmentSummary {
   // Hold segments: means over the second half of the segment.
   double bias_uncompensated_dps = 0.0;  // mean gyro_mv / scale (seed Table 2's bias_dps)
   double bias_compensated_dps = 0.0;    // mean compensated rate
+  // The same mean compensated rate without what the gyro adds to its
+  // zero-rate curve (its noise, the named effects): the plant's curve at the
+  // die less the calibration where the Controller evaluated it (the
+  // sensor's reading, through the calibration's die lag), over scale.
+  double calibration_error_dps = 0.0;
   bool has_bias = false;
 };
 
@@ -160,6 +165,7 @@ struct RunSummary {
   std::vector<SegmentSummary> segments;
   double bias_uncompensated_max_abs_dps = 0.0;
   double bias_compensated_max_abs_dps = 0.0;
+  double calibration_error_max_abs_dps = 0.0;  // over the holds (SegmentSummary::calibration_error_dps)
 };
 
 // Settling: the first time after which |casing - setpoint| <= settle_band_c
@@ -167,6 +173,17 @@ struct RunSummary {
 RunSummary summarize_run(const std::vector<RecordRow>& rows, const model::ChamberProfile& profile,
                          double setpoint_c, double scale_mv_per_dps, double settle_band_c = 0.3,
                          double settle_hold_s = 300.0);
+
+// Fills SegmentSummary::calibration_error_dps of every hold summarize_run
+// gave a bias, and its maximum: each row's compensated rate less the gyro's
+// output beyond the plant's zero-rate curve at the die (its offset
+// included), averaged over the hold's second half. What the calibration
+// leaves, with the sensor and its lag as the Controller saw them, and no
+// gyro noise. A figure only a simulation has: on a board the curve is what
+// the calibration estimates.
+void add_calibration_error(RunSummary& summary, const std::vector<RecordRow>& rows,
+                           const model::ChamberProfile& profile, const model::PlantParams& plant,
+                           double scale_mv_per_dps);
 
 struct SimulationSetup {
   model::PlantParams plant;
