@@ -156,7 +156,7 @@ TEST_CASE("a simulation's calibration error is the compensated holds without the
   const auto exact = holds_with_line_calibration(0.0, 0.0, 0.0);
   CHECK(exact.summary.bias_compensated_max_abs_dps > 1e-4);  // the gyro's noise is there
   CHECK(exact.summary.calibration_error_max_abs_dps < 1e-9);  // and taken out
-  // A calibration 0.8774 mV high compensates 0.1 deg/s too little.
+  // A calibration 0.8774 mV high takes 0.1 deg/s too much off the rate.
   const auto off = holds_with_line_calibration(0.0, 0.8774, 0.0);
   CHECK(off.summary.calibration_error_max_abs_dps == Approx(0.1).epsilon(1e-9));
   std::size_t holds = 0;
