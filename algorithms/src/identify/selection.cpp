@@ -662,7 +662,10 @@ SelectionResult select_effects(const SelectionProblem& problem, const Criteria& 
       // Two effects the record cannot rank are alternatives only if neither
       // adds to the other: the runner-up passing every test on top of the
       // best means both are there (a lag and a warm-up, each explaining part
-      // of the same residual), and the next round adds it.
+      // of the same residual), and the next round adds it. The runner-up
+      // adding nothing to the best while the best adds to it means the best
+      // explains what the runner-up does and more (a 120 s lag and the rate
+      // sensitivity that follows part of it: the lag is the answer).
       if (tie && !collinear && !grouped) {
         std::vector<std::string> with_best = effects;
         with_best.insert(with_best.end(), best.adds.begin(), best.adds.end());
@@ -670,6 +673,15 @@ SelectionResult select_effects(const SelectionProblem& problem, const Criteria& 
         on_top.score.effect = other.effect + " (with " + best.effect + ")";
         result.tried.push_back(on_top.score);
         tie = !on_top.score.passed;
+        if (tie) {
+          std::vector<std::string> with_other = effects;
+          with_other.insert(with_other.end(), other.adds.begin(), other.adds.end());
+          Trial encompassing =
+              try_candidate(problem, criteria, other.scored, scored, with_other, best.adds, round, false);
+          encompassing.score.effect = best.effect + " (with " + other.effect + ")";
+          result.tried.push_back(encompassing.score);
+          tie = !encompassing.score.passed;
+        }
       }
       if (tie) tie_in(other.adds);
     }

@@ -197,19 +197,27 @@ Eigen::VectorXd first_order_lag(const Eigen::VectorXd& u, double step_s, double 
 }
 
 // Uniform cubic B-spline basis over [lo, hi] with `intervals` intervals:
-// intervals + 3 columns written from column `first`.
+// intervals + 3 columns written from column `first`. Beyond the range the
+// curve goes on straight, with its slope at the edge: a lagged temperature
+// reaches below the fitted bins' range where the coldest (or hottest) part
+// of the record was settling after a gap, and a curve held flat there made
+// the lag misfit the ramp out of it (issue 31: a 120 s lag behind a 1 h gap
+// answered none, its likelihood below the model without it).
 void spline_columns(const Eigen::VectorXd& x, double lo, double hi, int intervals,
                     Eigen::MatrixXd& design, Eigen::Index first) {
   const double width = (hi - lo) / intervals;
   for (Eigen::Index i = 0; i < x.size(); ++i) {
-    const double u = std::clamp((x(i) - lo) / width, 0.0, static_cast<double>(intervals));
-    int k = std::min(static_cast<int>(u), intervals - 1);
-    const double t = u - k;
+    const double u = (x(i) - lo) / width;
+    const double inside = std::clamp(u, 0.0, static_cast<double>(intervals));
+    const double beyond = u - inside;  // in intervals; 0 within the range
+    int k = std::min(static_cast<int>(inside), intervals - 1);
+    const double t = inside - k;
     const double s = 1.0 - t;
-    design(i, first + k) = s * s * s / 6.0;
-    design(i, first + k + 1) = (3.0 * t * t * t - 6.0 * t * t + 4.0) / 6.0;
-    design(i, first + k + 2) = (-3.0 * t * t * t + 3.0 * t * t + 3.0 * t + 1.0) / 6.0;
-    design(i, first + k + 3) = t * t * t / 6.0;
+    design(i, first + k) = s * s * s / 6.0 - beyond * s * s / 2.0;
+    design(i, first + k + 1) = (3.0 * t * t * t - 6.0 * t * t + 4.0) / 6.0 + beyond * (3.0 * t * t - 4.0 * t) / 2.0;
+    design(i, first + k + 2) =
+        (-3.0 * t * t * t + 3.0 * t * t + 3.0 * t + 1.0) / 6.0 + beyond * (-3.0 * t * t + 2.0 * t + 1.0) / 2.0;
+    design(i, first + k + 3) = t * t * t / 6.0 + beyond * t * t / 2.0;
   }
 }
 

@@ -25,6 +25,14 @@ IndependentSpec spec(std::uint64_t seed, double wander_tau_s) {
   return s;
 }
 
+// The sweep's "gap 1 h: thermal_lag 120 s" record.
+IndependentSpec lag_behind_a_gap(std::uint64_t seed) {
+  IndependentSpec s = spec(seed, 300.0);
+  s.lag_tau_s = 120.0;
+  s.gaps = {{3.0 * 3600.0, 3600.0}};
+  return s;
+}
+
 // Half the default number of bins (15 s each), for the sanitizer builds.
 SeriesOptions fast() {
   SeriesOptions o;
@@ -102,6 +110,30 @@ TEST_CASE("a thermal lag across a one-hour gap is named, with its time constant"
   REQUIRE_FALSE(id.added.empty());
   CHECK(id.added[0].params[0].value == Approx(120.0).epsilon(0.2));
   CHECK(id.note.find("gap") != std::string::npos);
+}
+
+TEST_CASE("a thermal lag whose coldest stretch was settling after a gap is named: the curve goes on past its range") {
+  // The 1 h gap hid the turn at -20 C; the 600 s after it are not fitted, so
+  // the fitted bins start at -12 C while the lagged temperature starts at
+  // -14 C. With the curve held flat below its range the lag misfit the ramp
+  // out of the gap by 3 mV, lost the likelihood to the model without it
+  // (whose wander took 0.72 mV with 5400 s of correlation, its bound) and
+  // the record was answered none.
+  const auto id = identify_series(make_independent_record(lag_behind_a_gap(623758)), SeriesTarget::gyro_mv,
+                                  SeriesOptions{});
+  CHECK(id.verdict == "thermal_lag");
+  REQUIRE_FALSE(id.added.empty());
+  CHECK(id.added[0].params[0].value == Approx(120.0).epsilon(0.2));
+}
+
+TEST_CASE("a lag that explains all a rate sensitivity does and more is named alone, not offered with it") {
+  // Both pass alone and rank within the tie margin under one noise; the
+  // rate sensitivity adds nothing on top of the lag, the lag adds to it
+  // (with the curve mended but not this rule: ambiguous:rate_sensitivity+
+  // thermal_lag; before either, unexplained).
+  const auto id = identify_series(make_independent_record(lag_behind_a_gap(600001)), SeriesTarget::gyro_mv,
+                                  SeriesOptions{});
+  CHECK(id.verdict == "thermal_lag");
 }
 
 // Issue 22: across a gap the record cannot tell a drift from the wander's
