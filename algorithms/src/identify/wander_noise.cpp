@@ -13,6 +13,11 @@ namespace {
 // ratio (kNoWander: none) and log10 tau.
 constexpr double kNoWander = -99.0;
 
+// How far the full likelihood may fall from the maximum-likelihood start
+// while the restricted likelihood moves the wander: the 95 % region of two
+// parameters (chi-square(2) 5.99 / 2).
+constexpr double kFullLikelihoodDrop = 3.0;
+
 WanderNoise relative_noise(double log_ratio, double log_tau) {
   return {1.0, log_ratio <= kNoWander ? 0.0 : std::pow(10.0, log_ratio), std::pow(10.0, log_tau)};
 }
@@ -66,13 +71,29 @@ void Whitener::apply(Eigen::Ref<Eigen::MatrixXd> columns) const {
   }
 }
 
+namespace {
+
+// Design and data whitened under a noise model, and the log-determinant.
+struct Whitened {
+  Eigen::MatrixXd x;
+  Eigen::VectorXd z;
+  double log_det = 0.0;
+};
+
+Whitened whiten(const Eigen::VectorXd& data, const Eigen::MatrixXd& design, const WanderNoise& noise,
+                std::span<const double> time_s, std::span<const double> white_scale) {
+  const Whitener w(noise, time_s, white_scale);
+  Whitened out{design, data, w.log_det()};
+  w.apply(out.x);
+  w.apply(out.z);
+  return out;
+}
+
+}  // namespace
+
 GlsFit fit_gls(const Eigen::VectorXd& data, const Eigen::MatrixXd& design, const WanderNoise& noise,
                std::span<const double> time_s, std::span<const double> white_scale) {
-  const Whitener w(noise, time_s, white_scale);
-  Eigen::MatrixXd x = design;
-  w.apply(x);
-  Eigen::VectorXd z = data;
-  w.apply(z);
+  const auto [x, z, log_det] = whiten(data, design, noise, time_s, white_scale);
   const Eigen::Index n = data.size();
   const Eigen::Index p = design.cols();
   GlsFit fit;
@@ -87,7 +108,7 @@ GlsFit fit_gls(const Eigen::VectorXd& data, const Eigen::MatrixXd& design, const
   const double sse = std::max(fit.white_residual.squaredNorm(), 1e-300);
   const double dof = std::max(1.0, nd - static_cast<double>(p));
   fit.white_var = sse / dof;
-  fit.log_likelihood = -0.5 * nd * std::log(sse / nd) - 0.5 * w.log_det();
+  fit.log_likelihood = -0.5 * nd * std::log(sse / nd) - 0.5 * log_det;
   return fit;
 }
 
@@ -147,6 +168,72 @@ WanderNoise fit_wander_noise(const Eigen::VectorXd& residual, std::span<const do
     }
   }
   return result();
+}
+
+NoiseLikelihoods noise_likelihoods(const Eigen::VectorXd& data, const Eigen::MatrixXd& design, const WanderNoise& noise,
+                                   std::span<const double> time_s, std::span<const double> white_scale) {
+  const auto [x, z, log_det] = whiten(data, design, noise, time_s, white_scale);
+  const Eigen::Index n = data.size();
+  const Eigen::Index p = design.cols();
+  double log_det_normal = 0.0;
+  double sse = z.squaredNorm();
+  if (p > 0) {
+    Eigen::MatrixXd normal = gram_matrix(x);
+    Eigen::VectorXd scale(p);
+    for (Eigen::Index j = 0; j < p; ++j) {
+      const double norm = std::sqrt(normal(j, j));
+      scale(j) = norm > 0.0 ? 1.0 / norm : 1.0;
+      log_det_normal -= 2.0 * std::log(scale(j));
+    }
+    normal = scale.asDiagonal() * normal * scale.asDiagonal();
+    normal.diagonal().array() += 1e-10;
+    const Eigen::LDLT<Eigen::MatrixXd> ldlt(normal);
+    for (Eigen::Index j = 0; j < p; ++j) log_det_normal += std::log(std::max(ldlt.vectorD()(j), 1e-300));
+    const Eigen::VectorXd rhs = scale.asDiagonal() * (x.transpose() * z);
+    sse = std::max(sse - rhs.dot(ldlt.solve(rhs)), 1e-300);
+  }
+  const double dof = std::max(1.0, static_cast<double>(n - p));
+  const double nd = static_cast<double>(n);
+  return {-0.5 * dof * std::log(sse / dof) - 0.5 * log_det - 0.5 * log_det_normal,
+          -0.5 * nd * std::log(sse / nd) - 0.5 * log_det};
+}
+
+WanderNoise refine_wander_noise_restricted(const Eigen::VectorXd& data, const Eigen::MatrixXd& design,
+                                           std::span<const double> time_s, std::span<const double> white_scale,
+                                           double tau_min_s, double tau_max_s, const WanderNoise& start) {
+  if (!(start.wander_var > 0.0) || !(start.white_var > 0.0) || !(tau_max_s > tau_min_s)) return start;
+  const double lt_lo = std::log10(tau_min_s);
+  const double lt_hi = std::log10(tau_max_s);
+  double best_lr = std::log10(start.wander_var / start.white_var);
+  double best_lt = std::clamp(std::log10(start.tau_s), lt_lo, lt_hi);
+  const auto evaluate = [&](double lr, double lt) {
+    return noise_likelihoods(data, design, relative_noise(lr, lt), time_s, white_scale);
+  };
+  const NoiseLikelihoods at_start = evaluate(best_lr, best_lt);
+  double best = at_start.restricted;
+  const double min_full = at_start.full - kFullLikelihoodDrop;
+  double step_r = 0.25;
+  double step_t = (lt_hi - lt_lo) / 20.0;
+  while (step_r > 0.02) {
+    bool moved = false;
+    for (const auto& [dr, dt] : {std::pair{1.0, 0.0}, {-1.0, 0.0}, {0.0, 1.0}, {0.0, -1.0}, {1.0, 1.0}, {-1.0, -1.0},
+                                 {1.0, -1.0}, {-1.0, 1.0}}) {
+      const double lr = std::clamp(best_lr + dr * step_r, -6.0, 6.0);
+      const double lt = std::clamp(best_lt + dt * step_t, lt_lo, lt_hi);
+      const NoiseLikelihoods v = evaluate(lr, lt);
+      if (v.restricted > best + 1e-9 && v.full >= min_full) {
+        best = v.restricted;
+        best_lr = lr;
+        best_lt = lt;
+        moved = true;
+      }
+    }
+    if (!moved) {
+      step_r /= 2.0;
+      step_t /= 2.0;
+    }
+  }
+  return relative_noise(best_lr, best_lt);  // white variance 1: a ratio and a tau
 }
 
 }  // namespace gyrotc::identify

@@ -136,6 +136,34 @@ TEST_CASE("a lag that explains all a rate sensitivity does and more is named alo
   CHECK(id.verdict == "thermal_lag");
 }
 
+TEST_CASE("a null record under 1000 s wander is not read as a drift: the wander is fitted beside the curve by REML") {
+  // The sweep's "null, wander 1000 s, jittered sampling" record of seed
+  // 771272. Its residual's maximum-likelihood wander came to 0.07 mV / 233 s
+  // (truth 0.15 mV / 1000 s), the bias curve having taken the rest, and a
+  // drift of 0.07 mV/h stood at t = 8 against it: answered linear_drift.
+  IndependentSpec s;
+  s.wander_tau_s = 1000.0;
+  s.jitter_s = 0.5;
+  s.seed = 771272;
+  const auto id = identify_series(make_independent_record(s), SeriesTarget::gyro_mv, SeriesOptions{});
+  CHECK(id.verdict == "none");
+}
+
+TEST_CASE("a ramp hysteresis that an ambient sensitivity partly stands in for is named alone") {
+  // Both pass alone and tie on their held-out errors; the ambient
+  // sensitivity has no evidence on top of the hysteresis (p = 0.5), the
+  // hysteresis has on top of it (p = 2e-7) but with t = 2.9 and a held-out
+  // gain of 0.9 %, what the stand-in left: the encompassing comparison is the
+  // likelihood's (with every test asked of it, and the wander by REML:
+  // ambiguous:ambient_sensitivity+ramp_hysteresis).
+  IndependentSpec s;
+  s.wander_tau_s = 300.0;
+  s.hysteresis_mv = 0.5;
+  s.seed = 700001;
+  const auto id = identify_series(make_independent_record(s), SeriesTarget::gyro_mv, SeriesOptions{});
+  CHECK(id.verdict == "ramp_hysteresis");
+}
+
 // Issue 22: across a gap the record cannot tell a drift from the wander's
 // level change. This null record (300 s wander, one hour missing) was
 // answered linear_drift at p = 3e-7 when the drift was tried across the gap.

@@ -65,4 +65,24 @@ WanderNoise fit_wander_noise(const Eigen::VectorXd& residual, std::span<const do
                              std::span<const double> white_scale, double tau_min_s, double tau_max_s,
                              const WanderNoise* start = nullptr);
 
+// The restricted (REML) log-likelihood of data under design and noise, the
+// white variance concentrated out, up to a constant: the likelihood of the
+// residual's n - p contrasts, which does not count the design's fitted
+// coefficients as known (-1/2 ln det of the whitened normal matrix); and
+// the full likelihood, as fit_gls gives it.
+struct NoiseLikelihoods {
+  double restricted = 0.0;
+  double full = 0.0;
+};
+NoiseLikelihoods noise_likelihoods(const Eigen::VectorXd& data, const Eigen::MatrixXd& design, const WanderNoise& noise,
+                                   std::span<const double> time_s, std::span<const double> white_scale = {});
+// The wander's ratio to the white variance and its tau, moved from `start`
+// (a maximum-likelihood fit) towards the restricted likelihood's optimum by a
+// shrinking pattern search, within the full likelihood's 95 % region about
+// the start; white_var of the result is 1 (a ratio). A start without wander
+// is returned as it is.
+WanderNoise refine_wander_noise_restricted(const Eigen::VectorXd& data, const Eigen::MatrixXd& design,
+                                           std::span<const double> time_s, std::span<const double> white_scale,
+                                           double tau_min_s, double tau_max_s, const WanderNoise& start);
+
 }  // namespace gyrotc::identify
