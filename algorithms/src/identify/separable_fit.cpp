@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <utility>
 #include <vector>
 
 namespace gyrotc::identify {
@@ -38,21 +39,36 @@ Eigen::MatrixXd gram_matrix(const Eigen::MatrixXd& design) {
   return out;
 }
 
-namespace {
-
-// (A^T A)^-1 with columns scaled to unit norm and a tiny ridge, so nearly
-// collinear columns (an empty spline interval) stay solvable.
-Eigen::MatrixXd scaled_inverse_normal(const Eigen::MatrixXd& design, Eigen::VectorXd& scale) {
+ScaledNormal scaled_normal(const Eigen::MatrixXd& design) {
   const Eigen::Index p = design.cols();
   Eigen::MatrixXd normal = gram_matrix(design);
-  scale.resize(p);
+  ScaledNormal out;
+  out.scale.resize(p);
   for (Eigen::Index j = 0; j < p; ++j) {
     const double norm = std::sqrt(normal(j, j));
-    scale(j) = norm > 0.0 ? 1.0 / norm : 1.0;
+    out.scale(j) = norm > 0.0 ? 1.0 / norm : 1.0;
   }
-  normal = scale.asDiagonal() * normal * scale.asDiagonal();
+  normal = out.scale.asDiagonal() * normal * out.scale.asDiagonal();
   normal.diagonal().array() += 1e-10;
-  return normal.ldlt().solve(Eigen::MatrixXd::Identity(p, p));
+  out.ldlt.compute(normal);
+  return out;
+}
+
+double ScaledNormal::log_det() const {
+  double out = 0.0;
+  for (Eigen::Index j = 0; j < scale.size(); ++j) out -= 2.0 * std::log(scale(j));
+  for (Eigen::Index j = 0; j < scale.size(); ++j) out += std::log(std::max(ldlt.vectorD()(j), 1e-300));
+  return out;
+}
+
+namespace {
+
+// (A^T A)^-1 in the scaled coordinates of scaled_normal.
+Eigen::MatrixXd scaled_inverse_normal(const Eigen::MatrixXd& design, Eigen::VectorXd& scale) {
+  ScaledNormal normal = scaled_normal(design);
+  scale = std::move(normal.scale);
+  const Eigen::Index p = design.cols();
+  return normal.ldlt.solve(Eigen::MatrixXd::Identity(p, p));
 }
 
 struct Profile {

@@ -22,6 +22,53 @@ WanderNoise relative_noise(double log_ratio, double log_tau) {
   return {1.0, log_ratio <= kNoWander ? 0.0 : std::pow(10.0, log_ratio), std::pow(10.0, log_tau)};
 }
 
+// Shrinking pattern search over (log ratio, log tau) from (lr, lt): each
+// round polls the eight neighbours at the current steps (the likelihood's
+// long ridge, along wander variance / tau, runs diagonally) and try_move
+// makes each point it finds better the current one, returning true; a round
+// without a move halves the steps, down to 0.02 in log ratio.
+template <class TryMove>
+void pattern_search(const double& lr, const double& lt, double step_t, double lt_lo, double lt_hi,
+                    TryMove&& try_move) {
+  double step_r = 0.25;
+  while (step_r > 0.02) {
+    bool moved = false;
+    for (const auto& [dr, dt] : {std::pair{1.0, 0.0}, {-1.0, 0.0}, {0.0, 1.0}, {0.0, -1.0}, {1.0, 1.0}, {-1.0, -1.0},
+                                 {1.0, -1.0}, {-1.0, 1.0}}) {
+      moved = try_move(std::clamp(lr + dr * step_r, -6.0, 6.0), std::clamp(lt + dt * step_t, lt_lo, lt_hi)) || moved;
+    }
+    if (!moved) {
+      step_r /= 2.0;
+      step_t /= 2.0;
+    }
+  }
+}
+
+// The innovations of K columns at once. Each column's filter is a serial
+// recursion bounded by its latency, not its arithmetic: K independent ones
+// interleave in the pipeline. The same operations as one column at a time.
+template <int K>
+void whiten_columns(double* const* z, std::size_t n, const std::vector<double>& decay, const std::vector<double>& gain,
+                    const std::vector<double>& inv_sd) {
+  double m[K] = {};  // filtered wander estimate after the previous sample
+  double largest[K] = {};
+  for (std::size_t t = 0; t < n; ++t) {
+    for (int k = 0; k < K; ++k) {
+      const double predicted = t > 0 ? decay[t] * m[k] : 0.0;
+      const double v = z[k][t] - predicted;
+      m[k] = predicted + gain[t] * v;
+      z[k][t] = v * inv_sd[t];
+      largest[k] = std::max(largest[k], std::fabs(z[k][t]));
+    }
+  }
+  for (int k = 0; k < K; ++k) {
+    const double tiny = 1e-12 * largest[k];
+    for (std::size_t t = 0; t < n; ++t) {
+      if (std::fabs(z[k][t]) < tiny) z[k][t] = 0.0;
+    }
+  }
+}
+
 }  // namespace
 
 Whitener::Whitener(const WanderNoise& noise, std::span<const double> time_s,
@@ -34,40 +81,49 @@ Whitener::Whitener(const WanderNoise& noise, std::span<const double> time_s,
   const double q = noise.white_var > 0.0 ? noise.wander_var / noise.white_var : 0.0;
   const double tau = std::max(noise.tau_s, 1e-9);
   double p = q;  // stationary start
+  double last_dt = -1.0;
+  double phi = 0.0;
+  double product = 1.0;
   for (std::size_t t = 0; t < n; ++t) {
     double predicted = q;
     if (t > 0) {
-      const double phi = std::exp(-(time_s[t] - time_s[t - 1]) / tau);
+      const double dt = time_s[t] - time_s[t - 1];
+      if (dt != last_dt) {  // a regular record pays for one exp
+        phi = std::exp(-dt / tau);
+        last_dt = dt;
+      }
       decay_[t] = phi;
       predicted = phi * phi * p + q * (1.0 - phi * phi);
     }
     const double white = white_scale.empty() ? 1.0 : white_scale[t];
     const double f = predicted + white;
-    gain_[t] = predicted / f;
-    inv_sd_[t] = 1.0 / std::sqrt(f);
-    log_det_ += std::log(f);
+    const double inv_f = 1.0 / f;
+    gain_[t] = predicted * inv_f;
+    inv_sd_[t] = std::sqrt(inv_f);
+    // The log of a running product, taken before it could leave the
+    // doubles' range: one log per many samples instead of one each.
+    product *= f;
+    if (!(product > 1e-100 && product < 1e100)) {
+      log_det_ += std::log(product);
+      product = 1.0;
+    }
     p = predicted * (1.0 - gain_[t]);
   }
+  log_det_ += std::log(product);
 }
 
 void Whitener::apply(Eigen::Ref<Eigen::MatrixXd> columns) const {
-  const Eigen::Index n = columns.rows();
-  for (Eigen::Index j = 0; j < columns.cols(); ++j) {
-    double* z = columns.col(j).data();
-    double m = 0.0;  // filtered wander estimate after the previous sample
-    double largest = 0.0;
-    for (Eigen::Index t = 0; t < n; ++t) {
-      const auto i = static_cast<std::size_t>(t);
-      const double predicted = t > 0 ? decay_[i] * m : 0.0;
-      const double v = z[t] - predicted;
-      m = predicted + gain_[i] * v;
-      z[t] = v * inv_sd_[i];
-      largest = std::max(largest, std::fabs(z[t]));
-    }
-    const double tiny = 1e-12 * largest;
-    for (Eigen::Index t = 0; t < n; ++t) {
-      if (std::fabs(z[t]) < tiny) z[t] = 0.0;
-    }
+  const auto n = static_cast<std::size_t>(columns.rows());
+  constexpr Eigen::Index kBlock = 4;
+  Eigen::Index j = 0;
+  for (; j + kBlock <= columns.cols(); j += kBlock) {
+    double* const z[kBlock] = {columns.col(j).data(), columns.col(j + 1).data(), columns.col(j + 2).data(),
+                               columns.col(j + 3).data()};
+    whiten_columns<kBlock>(z, n, decay_, gain_, inv_sd_);
+  }
+  for (; j < columns.cols(); ++j) {
+    double* const z[1] = {columns.col(j).data()};
+    whiten_columns<1>(z, n, decay_, gain_, inv_sd_);
   }
 }
 
@@ -80,20 +136,43 @@ struct Whitened {
   double log_det = 0.0;
 };
 
-Whitened whiten(const Eigen::VectorXd& data, const Eigen::MatrixXd& design, const WanderNoise& noise,
-                std::span<const double> time_s, std::span<const double> white_scale) {
+// Into `out`, whose storage is reused: a search whitens the same design
+// dozens of times, and a fresh megabyte copy each time cost its page faults,
+// a third of the identify tests' time under the sanitizers.
+void whiten(const Eigen::VectorXd& data, const Eigen::MatrixXd& design, const WanderNoise& noise,
+            std::span<const double> time_s, std::span<const double> white_scale, Whitened& out) {
   const Whitener w(noise, time_s, white_scale);
-  Whitened out{design, data, w.log_det()};
+  out.x = design;
+  out.z = data;
+  out.log_det = w.log_det();
   w.apply(out.x);
   w.apply(out.z);
-  return out;
+}
+
+NoiseLikelihoods likelihoods(const Whitened& w) {
+  const Eigen::Index n = w.z.size();
+  const Eigen::Index p = w.x.cols();
+  double log_det_normal = 0.0;
+  double sse = w.z.squaredNorm();
+  if (p > 0) {
+    const ScaledNormal normal = scaled_normal(w.x);
+    log_det_normal = normal.log_det();
+    const Eigen::VectorXd rhs = normal.scale.asDiagonal() * (w.x.transpose() * w.z);
+    sse = std::max(sse - rhs.dot(normal.ldlt.solve(rhs)), 1e-300);
+  }
+  const double dof = std::max(1.0, static_cast<double>(n - p));
+  const double nd = static_cast<double>(n);
+  return {-0.5 * dof * std::log(sse / dof) - 0.5 * w.log_det - 0.5 * log_det_normal,
+          -0.5 * nd * std::log(sse / nd) - 0.5 * w.log_det};
 }
 
 }  // namespace
 
 GlsFit fit_gls(const Eigen::VectorXd& data, const Eigen::MatrixXd& design, const WanderNoise& noise,
                std::span<const double> time_s, std::span<const double> white_scale) {
-  const auto [x, z, log_det] = whiten(data, design, noise, time_s, white_scale);
+  Whitened w;
+  whiten(data, design, noise, time_s, white_scale, w);
+  const auto& [x, z, log_det] = w;
   const Eigen::Index n = data.size();
   const Eigen::Index p = design.cols();
   GlsFit fit;
@@ -151,51 +230,16 @@ WanderNoise fit_wander_noise(const Eigen::VectorXd& residual, std::span<const do
   if (start != nullptr && start->wander_var > 0.0 && start->white_var > 0.0) {
     consider(std::log10(start->wander_var / start->white_var), std::clamp(std::log10(start->tau_s), lt_lo, lt_hi));
   }
-  double step_r = 0.25;
-  double step_t = (lt_hi - lt_lo) / 20.0;
   if (best_lr <= kNoWander) return result();
-  // Shrinking pattern search.
-  while (step_r > 0.02) {
-    bool moved = false;
-    for (const auto& [dr, dt] : {std::pair{1.0, 0.0}, {-1.0, 0.0}, {0.0, 1.0}, {0.0, -1.0}, {1.0, 1.0}, {-1.0, -1.0},
-                                 {1.0, -1.0}, {-1.0, 1.0}}) {
-      moved = consider(std::clamp(best_lr + dr * step_r, -6.0, 6.0), std::clamp(best_lt + dt * step_t, lt_lo, lt_hi)) ||
-              moved;
-    }
-    if (!moved) {
-      step_r /= 2.0;
-      step_t /= 2.0;
-    }
-  }
+  pattern_search(best_lr, best_lt, (lt_hi - lt_lo) / 20.0, lt_lo, lt_hi, consider);
   return result();
 }
 
 NoiseLikelihoods noise_likelihoods(const Eigen::VectorXd& data, const Eigen::MatrixXd& design, const WanderNoise& noise,
                                    std::span<const double> time_s, std::span<const double> white_scale) {
-  const auto [x, z, log_det] = whiten(data, design, noise, time_s, white_scale);
-  const Eigen::Index n = data.size();
-  const Eigen::Index p = design.cols();
-  double log_det_normal = 0.0;
-  double sse = z.squaredNorm();
-  if (p > 0) {
-    Eigen::MatrixXd normal = gram_matrix(x);
-    Eigen::VectorXd scale(p);
-    for (Eigen::Index j = 0; j < p; ++j) {
-      const double norm = std::sqrt(normal(j, j));
-      scale(j) = norm > 0.0 ? 1.0 / norm : 1.0;
-      log_det_normal -= 2.0 * std::log(scale(j));
-    }
-    normal = scale.asDiagonal() * normal * scale.asDiagonal();
-    normal.diagonal().array() += 1e-10;
-    const Eigen::LDLT<Eigen::MatrixXd> ldlt(normal);
-    for (Eigen::Index j = 0; j < p; ++j) log_det_normal += std::log(std::max(ldlt.vectorD()(j), 1e-300));
-    const Eigen::VectorXd rhs = scale.asDiagonal() * (x.transpose() * z);
-    sse = std::max(sse - rhs.dot(ldlt.solve(rhs)), 1e-300);
-  }
-  const double dof = std::max(1.0, static_cast<double>(n - p));
-  const double nd = static_cast<double>(n);
-  return {-0.5 * dof * std::log(sse / dof) - 0.5 * log_det - 0.5 * log_det_normal,
-          -0.5 * nd * std::log(sse / nd) - 0.5 * log_det};
+  Whitened w;
+  whiten(data, design, noise, time_s, white_scale, w);
+  return likelihoods(w);
 }
 
 WanderNoise refine_wander_noise_restricted(const Eigen::VectorXd& data, const Eigen::MatrixXd& design,
@@ -206,33 +250,22 @@ WanderNoise refine_wander_noise_restricted(const Eigen::VectorXd& data, const Ei
   const double lt_hi = std::log10(tau_max_s);
   double best_lr = std::log10(start.wander_var / start.white_var);
   double best_lt = std::clamp(std::log10(start.tau_s), lt_lo, lt_hi);
+  Whitened w;
   const auto evaluate = [&](double lr, double lt) {
-    return noise_likelihoods(data, design, relative_noise(lr, lt), time_s, white_scale);
+    whiten(data, design, relative_noise(lr, lt), time_s, white_scale, w);
+    return likelihoods(w);
   };
   const NoiseLikelihoods at_start = evaluate(best_lr, best_lt);
   double best = at_start.restricted;
   const double min_full = at_start.full - kFullLikelihoodDrop;
-  double step_r = 0.25;
-  double step_t = (lt_hi - lt_lo) / 20.0;
-  while (step_r > 0.02) {
-    bool moved = false;
-    for (const auto& [dr, dt] : {std::pair{1.0, 0.0}, {-1.0, 0.0}, {0.0, 1.0}, {0.0, -1.0}, {1.0, 1.0}, {-1.0, -1.0},
-                                 {1.0, -1.0}, {-1.0, 1.0}}) {
-      const double lr = std::clamp(best_lr + dr * step_r, -6.0, 6.0);
-      const double lt = std::clamp(best_lt + dt * step_t, lt_lo, lt_hi);
-      const NoiseLikelihoods v = evaluate(lr, lt);
-      if (v.restricted > best + 1e-9 && v.full >= min_full) {
-        best = v.restricted;
-        best_lr = lr;
-        best_lt = lt;
-        moved = true;
-      }
-    }
-    if (!moved) {
-      step_r /= 2.0;
-      step_t /= 2.0;
-    }
-  }
+  pattern_search(best_lr, best_lt, (lt_hi - lt_lo) / 20.0, lt_lo, lt_hi, [&](double lr, double lt) {
+    const NoiseLikelihoods v = evaluate(lr, lt);
+    if (!(v.restricted > best + 1e-9 && v.full >= min_full)) return false;
+    best = v.restricted;
+    best_lr = lr;
+    best_lt = lt;
+    return true;
+  });
   return relative_noise(best_lr, best_lt);  // white variance 1: a ratio and a tau
 }
 

@@ -45,6 +45,17 @@ std::vector<std::vector<double>> grid_product(const std::vector<std::vector<doub
 // record (and in Debug builds).
 Eigen::MatrixXd gram_matrix(const Eigen::MatrixXd& design);
 
+// A^T A with its columns scaled to unit norm and a tiny ridge, so nearly
+// collinear columns (an empty spline interval) stay solvable, factorised:
+// what the solves and the restricted likelihood's determinant share.
+struct ScaledNormal {
+  Eigen::VectorXd scale;              // 1 / each column's norm (1 for a zero column)
+  Eigen::LDLT<Eigen::MatrixXd> ldlt;  // of diag(scale) A^T A diag(scale) + 1e-10 I
+  // ln det A^T A (of the ridged matrix, unscaled).
+  double log_det() const;
+};
+ScaledNormal scaled_normal(const Eigen::MatrixXd& design);
+
 // Linear LS of y on design (columns scaled internally, tiny ridge so that
 // empty spline intervals do not break the solve). Returns beta.
 Eigen::VectorXd solve_linear(const Eigen::MatrixXd& design, const Eigen::VectorXd& y);
