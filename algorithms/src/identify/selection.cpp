@@ -553,6 +553,13 @@ SelectionResult select_effects(const SelectionProblem& problem, const Criteria& 
   for (int round = 1; round <= static_cast<int>(problem.candidates.size()); ++round) {
     std::vector<Trial> passed;
     std::vector<Trial> masked;
+    // `adds` tried on top of a trial's model, listed as "name (with base)".
+    const auto try_on_top = [&](const Trial& base, const std::vector<std::string>& adds, const std::string& name) {
+      Trial t = try_candidate(problem, criteria, base.scored, scored, base.effects, adds, round, false);
+      t.score.effect = name + " (with " + base.effect + ")";
+      result.tried.push_back(t.score);
+      return t;
+    };
     for (const auto& effect : problem.candidates) {
       if (std::find(effects.begin(), effects.end(), effect) != effects.end()) continue;
       step();
@@ -580,8 +587,6 @@ SelectionResult select_effects(const SelectionProblem& problem, const Criteria& 
       constexpr std::size_t kMaskedTried = 2;
       for (std::size_t m = 0; m < std::min(masked.size(), kMaskedTried); ++m) {
         const std::string& first = masked[m].effect;
-        std::vector<std::string> with_first = effects;
-        with_first.push_back(first);
         for (const auto& second : problem.candidates) {
           if (second == first || std::find(effects.begin(), effects.end(), second) != effects.end()) continue;
           if (in_group(problem, first, second)) continue;
@@ -590,9 +595,7 @@ SelectionResult select_effects(const SelectionProblem& problem, const Criteria& 
                    std::find(t.adds.begin(), t.adds.end(), second) != t.adds.end();
           });
           if (done) continue;
-          Trial on_top = try_candidate(problem, criteria, masked[m].scored, scored, with_first, {second}, round, false);
-          on_top.score.effect = second + " (with " + first + ")";
-          result.tried.push_back(on_top.score);
+          const Trial on_top = try_on_top(masked[m], {second}, second);
           combinations += 1.0;
           if (!on_top.score.passed) continue;
           Trial pair = try_candidate(problem, criteria, current, scored, effects, {first, second}, round, false);
@@ -693,20 +696,11 @@ SelectionResult select_effects(const SelectionProblem& problem, const Criteria& 
       // of what the stand-in left (a 0.5 mV ramp hysteresis on top of an
       // ambient sensitivity: p = 2e-7, t = 2.9, held-out gain 0.9 %).
       if (tie && !collinear && !grouped) {
-        std::vector<std::string> with_best = effects;
-        with_best.insert(with_best.end(), best.adds.begin(), best.adds.end());
-        Trial on_top = try_candidate(problem, criteria, best.scored, scored, with_best, other.adds, round, false);
-        on_top.score.effect = other.effect + " (with " + best.effect + ")";
-        result.tried.push_back(on_top.score);
+        const Trial on_top = try_on_top(best, other.adds, other.effect);
         tie = !on_top.score.passed;
         const double max_p = is_series(problem) ? criteria.max_p_value : criteria.max_p_value_table;
         if (tie && on_top.score.p_value > max_p) {
-          std::vector<std::string> with_other = effects;
-          with_other.insert(with_other.end(), other.adds.begin(), other.adds.end());
-          Trial encompassing =
-              try_candidate(problem, criteria, other.scored, scored, with_other, best.adds, round, false);
-          encompassing.score.effect = best.effect + " (with " + other.effect + ")";
-          result.tried.push_back(encompassing.score);
+          const Trial encompassing = try_on_top(other, best.adds, best.effect);
           tie = !(encompassing.score.p_value <= max_p && encompassing.score.in_bounds);
         }
       }
