@@ -22,20 +22,25 @@ WanderNoise relative_noise(double log_ratio, double log_tau) {
   return {1.0, log_ratio <= kNoWander ? 0.0 : std::pow(10.0, log_ratio), std::pow(10.0, log_tau)};
 }
 
-// Shrinking pattern search over (log ratio, log tau) from (lr, lt): each
+// Shrinking pattern search over (log ratio, log tau), moving (lr, lt): each
 // round polls the eight neighbours at the current steps (the likelihood's
-// long ridge, along wander variance / tau, runs diagonally) and try_move
-// makes each point it finds better the current one, returning true; a round
-// without a move halves the steps, down to 0.02 in log ratio.
-template <class TryMove>
-void pattern_search(const double& lr, const double& lt, double step_t, double lt_lo, double lt_hi,
-                    TryMove&& try_move) {
+// long ridge, along wander variance / tau, runs diagonally) and moves to
+// each that better(lr, lt) accepts; a round without a move halves the steps,
+// down to 0.02 in log ratio.
+template <class Better>
+void pattern_search(double& lr, double& lt, double step_t, double lt_lo, double lt_hi, Better&& better) {
   double step_r = 0.25;
   while (step_r > 0.02) {
     bool moved = false;
     for (const auto& [dr, dt] : {std::pair{1.0, 0.0}, {-1.0, 0.0}, {0.0, 1.0}, {0.0, -1.0}, {1.0, 1.0}, {-1.0, -1.0},
                                  {1.0, -1.0}, {-1.0, 1.0}}) {
-      moved = try_move(std::clamp(lr + dr * step_r, -6.0, 6.0), std::clamp(lt + dt * step_t, lt_lo, lt_hi)) || moved;
+      const double r = std::clamp(lr + dr * step_r, -6.0, 6.0);
+      const double t = std::clamp(lt + dt * step_t, lt_lo, lt_hi);
+      if (better(r, t)) {
+        lr = r;
+        lt = t;
+        moved = true;
+      }
     }
     if (!moved) {
       step_r /= 2.0;
@@ -262,8 +267,6 @@ WanderNoise refine_wander_noise_restricted(const Eigen::VectorXd& data, const Ei
     const NoiseLikelihoods v = evaluate(lr, lt);
     if (!(v.restricted > best + 1e-9 && v.full >= min_full)) return false;
     best = v.restricted;
-    best_lr = lr;
-    best_lt = lt;
     return true;
   });
   return relative_noise(best_lr, best_lt);  // white variance 1: a ratio and a tau
