@@ -443,9 +443,9 @@ std::string explain(const Identification& id) {
   out += "\n";
   for (const auto& c : id.tried) {
     std::snprintf(line, sizeof line,
-                  "  round %d %-20s p %.3g  long-run %.3g  dBIC %.1f  held-out gain %.4f  folds %d  t %.2f  %s\n",
+                  "  round %d %-20s p %.3g  long-run %.3g  dBIC %.1f  held-out gain %.4f (z %.2f)  folds %d  t %.2f  %s\n",
                   c.round, c.effect.c_str(), c.p_value, c.long_run_factor, c.delta_bic, c.cv_gain,
-                  c.folds_improved, c.t_ratio, c.passed ? "kept" : c.reason.c_str());
+                  c.heldout_z, c.folds_improved, c.t_ratio, c.passed ? "kept" : c.reason.c_str());
     out += line;
     if (!c.params.empty()) {
       out += "        at";

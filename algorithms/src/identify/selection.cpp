@@ -136,6 +136,9 @@ struct HeldOut {
   std::vector<double> fold_sse;
   std::vector<double> unit_sse;
   std::vector<double> fold_count;  // held-out samples scored per fold
+  // Each sample's held-out error (the innovation on series); NaN where the
+  // sample is not scored.
+  Eigen::VectorXd error;
 };
 
 int unit(const SelectionProblem& p, Eigen::Index i) {
@@ -214,7 +217,9 @@ HeldOut held_out(const SelectionProblem& problem, const SeparableModel& model, c
   int units = 0;
   for (Eigen::Index i = 0; i < n; ++i) units = std::max(units, unit(problem, i) + 1);
   h.unit_sse.assign(static_cast<std::size_t>(units), 0.0);
+  h.error = Eigen::VectorXd::Constant(n, std::numeric_limits<double>::quiet_NaN());
   const auto add = [&](Eigen::Index i, int fold, double r) {
+    h.error(i) = r;
     h.fold_sse[static_cast<std::size_t>(fold)] += r * r;
     h.fold_count[static_cast<std::size_t>(fold)] += 1.0;
     h.unit_sse[static_cast<std::size_t>(unit(problem, i))] += r * r;
@@ -295,6 +300,31 @@ bool held_out_tie(const std::vector<double>& best, const std::vector<double>& ot
   for (double v : d) var += (v - mean) * (v - mean);
   var /= static_cast<double>(d.size() - 1);
   return mean < z * std::sqrt(var / static_cast<double>(d.size()));
+}
+
+// The fall of the held-out sum of squares from `before` to `after`, in
+// standard errors of that fall were the difference of the two predictions
+// (d = e_before - e_after, sample by sample) a fixed signal against
+// independent errors of the held-out variance s^2: 2 s |d| (docs/IDENTIFY.md,
+// Method 4). Sample by sample, not over the ~5 min blocks: a fall confined to
+// a few blocks drowns in the blocks' scatter (a paired test over the blocks,
+// tried for every candidate, lost every warm-up of the development seeds).
+double held_out_fall_z(const HeldOut& before, const HeldOut& after) {
+  double fall = 0.0;
+  double dd = 0.0;
+  double sse = 0.0;
+  double count = 0.0;
+  for (Eigen::Index i = 0; i < after.error.size(); ++i) {
+    const double b = before.error(i);
+    const double a = after.error(i);
+    if (!std::isfinite(a) || !std::isfinite(b)) continue;
+    fall += b * b - a * a;
+    dd += (b - a) * (b - a);
+    sse += a * a;
+    count += 1.0;
+  }
+  if (count < 1.0 || !(dd > 0.0) || !(sse > 0.0)) return 0.0;
+  return fall / (2.0 * std::sqrt(sse / count) * std::sqrt(dd));
 }
 
 struct Trial {
@@ -491,6 +521,7 @@ Trial try_candidate(const SelectionProblem& problem, const Criteria& criteria, c
     if (trial.after.fold_sse[f] < trial.before.fold_sse[f]) ++s.folds_improved;
   }
   s.cv_gain = sum_before > 0.0 ? (sum_before - sum_after) / sum_before : 0.0;
+  s.heldout_z = held_out_fall_z(trial.before, trial.after);
   trial.added_signal = t.fit.prediction - current.fit.prediction;
 
   char reason[96];
@@ -499,7 +530,10 @@ Trial try_candidate(const SelectionProblem& problem, const Criteria& criteria, c
   if (s.p_value > max_p) {
     std::snprintf(reason, sizeof reason, "evidence too weak (p = %.2g)", s.p_value);
     s.reason = reason;
-  } else if (s.cv_gain < criteria.min_cv_gain ||
+  } else if (probe && is_series(problem) && s.heldout_z < criteria.min_heldout_z) {
+    std::snprintf(reason, sizeof reason, "held-out errors do not fall clear of their noise (z = %.2g)", s.heldout_z);
+    s.reason = reason;
+  } else if ((!(probe && is_series(problem)) && s.cv_gain < criteria.min_cv_gain) ||
              s.folds_improved < std::min(criteria.min_folds_improved, problem.folds)) {
     s.reason = "held-out folds do not improve";
   } else if (is_series(problem) && s.t_ratio < criteria.min_t_ratio) {

@@ -146,6 +146,7 @@ nlohmann::json to_json(const id::Identification& r, double elapsed_s) {
                           {"p_value", t.p_value},
                           {"long_run_factor", t.long_run_factor},
                           {"cv_gain", t.cv_gain},
+                          {"heldout_z", t.heldout_z},
                           {"folds_improved", t.folds_improved},
                           {"t_ratio", t.t_ratio},
                           {"in_bounds", t.in_bounds},
@@ -305,10 +306,10 @@ void write_report(const id::Identification& r, const IdentifyOptions& o, double 
   if (!r.note.empty()) md << "Note: " << r.note << "\n\n";
   md << "## Every candidate tried\n\nRound 0: the generic probes, tried after the library; one that passes means "
         "structure remains that no library effect explains.\n\n| round | effect | p-value | delta BIC | CV gain | "
-        "folds improved | t ratio | in bounds | kept / why not |\n|---|---|---|---|---|---|---|---|---|\n";
+        "CV fall z | folds improved | t ratio | in bounds | kept / why not |\n|---|---|---|---|---|---|---|---|---|---|\n";
   for (const auto& t : r.tried) {
     md << "| " << t.round << " | " << t.effect << " | " << t.p_value << " | " << t.delta_bic << " | " << t.cv_gain << " | "
-       << t.folds_improved << " | " << t.t_ratio << " | " << (t.in_bounds ? "yes" : "no") << " | "
+       << t.heldout_z << " | " << t.folds_improved << " | " << t.t_ratio << " | " << (t.in_bounds ? "yes" : "no") << " | "
        << (t.passed ? "passed" : t.reason) << " |\n";
   }
   md << "\n![measured against the baseline and final models, and the residuals](plot.svg)\n\n";

@@ -32,6 +32,15 @@ struct Criteria {
   // Held-out (blocked cross-validation) sum of squares must fall by this
   // fraction, and in at least min_folds_improved of the folds.
   double min_cv_gain = 0.02;
+  // A probe for structure outside the library, on a series, instead: the
+  // fall in standard errors of itself (the two predictions' difference a
+  // fixed signal against independent innovations). The probe asks whether
+  // structure is left, a question of evidence, not of size; a fixed
+  // fraction of the whitened residual also asks more of a slow term, which
+  // the noise filter partly predicts away (the rate squared: 0.8-1.9 % at
+  // p down to 1e-10). 3 chosen on development seeds: at 2 a periodic term
+  // on a gapped null passed at z = 2.9 (docs/IDENTIFY.md, run 9).
+  double min_heldout_z = 3.0;
   int min_folds_improved = 3;
   // Two passing candidates are reported as ambiguous when they are closer
   // than this in BIC, or their added signals correlate more than
@@ -68,6 +77,7 @@ struct CandidateScore {
   // correlation left); the p-value and t-ratio are corrected by it.
   double long_run_factor = 1.0;
   double cv_gain = 0.0;  // fractional fall of the held-out sum of squares
+  double heldout_z = 0.0;  // its mean paired fall over the held-out units, in standard errors
   int folds_improved = 0;
   double t_ratio = 0.0;
   bool in_bounds = false;
