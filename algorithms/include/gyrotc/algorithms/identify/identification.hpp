@@ -77,7 +77,7 @@ struct CandidateScore {
   // correlation left); the p-value and t-ratio are corrected by it.
   double long_run_factor = 1.0;
   double cv_gain = 0.0;  // fractional fall of the held-out sum of squares
-  double heldout_z = 0.0;  // its mean paired fall over the held-out units, in standard errors
+  double heldout_z = 0.0;  // that fall in standard errors of itself (Criteria::min_heldout_z)
   int folds_improved = 0;
   double t_ratio = 0.0;
   bool in_bounds = false;
