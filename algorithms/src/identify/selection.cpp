@@ -525,15 +525,17 @@ Trial try_candidate(const SelectionProblem& problem, const Criteria& criteria, c
   trial.added_signal = t.fit.prediction - current.fit.prediction;
 
   char reason[96];
+  // A probe's held-out test is one of evidence (Criteria::min_heldout_z).
+  const bool by_evidence = probe && is_series(problem);
   const double max_p = scanned ? criteria.max_p_value_probe
                                : (is_series(problem) ? criteria.max_p_value : criteria.max_p_value_table);
   if (s.p_value > max_p) {
     std::snprintf(reason, sizeof reason, "evidence too weak (p = %.2g)", s.p_value);
     s.reason = reason;
-  } else if (probe && is_series(problem) && s.heldout_z < criteria.min_heldout_z) {
+  } else if (by_evidence && s.heldout_z < criteria.min_heldout_z) {
     std::snprintf(reason, sizeof reason, "held-out errors do not fall clear of their noise (z = %.2g)", s.heldout_z);
     s.reason = reason;
-  } else if ((!(probe && is_series(problem)) && s.cv_gain < criteria.min_cv_gain) ||
+  } else if ((!by_evidence && s.cv_gain < criteria.min_cv_gain) ||
              s.folds_improved < std::min(criteria.min_folds_improved, problem.folds)) {
     s.reason = "held-out folds do not improve";
   } else if (is_series(problem) && s.t_ratio < criteria.min_t_ratio) {
