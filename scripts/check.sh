@@ -14,13 +14,16 @@ jobs=${JOBS:-$(nproc)}
 status=0
 
 # Each stage's wall time is printed: the whole must stay within 45 min on
-# two cores, and the log shows where it goes.
+# two cores, and the log shows where it goes; with the compiler cache (the
+# presets use ccache when it is installed, scripts/ccache-stats.sh) each
+# build's hit rate too.
 run_preset() {
-  local preset=$1 start=$SECONDS
+  local preset=$1 start=$SECONDS stats
   echo "=== [$preset] configure + build"
   cmake --preset "$preset" >/dev/null
+  stats=$(scripts/ccache-stats.sh snapshot)
   cmake --build --preset "$preset" -j "$jobs"
-  echo "=== [$preset] tests (the build took $((SECONDS - start)) s)"
+  echo "=== [$preset] tests (the build took $((SECONDS - start)) s$(scripts/ccache-stats.sh since "$stats"))"
   start=$SECONDS
   ctest --preset "$preset" -j "$jobs" || status=1
   echo "=== [$preset] the tests took $((SECONDS - start)) s"
@@ -32,9 +35,11 @@ echo "=== aarch64 test binary: $(file -b build/aarch64/tests/test_app_csv | cut 
 
 echo "=== [release] the documented commands"
 cmake --preset release >/dev/null
+stats=$(scripts/ccache-stats.sh snapshot)
 targets=(gyrotc)
 if cmake --build --preset release --target help | grep 'gyrotc-emu$' >/dev/null; then targets+=(gyrotc-emu); fi
 cmake --build --preset release -j "$jobs" --target "${targets[@]}"
+echo "=== [release] built$(scripts/ccache-stats.sh since "$stats")"
 ctest --preset release -L docs || status=1
 echo "=== check.sh: $SECONDS s in all"
 exit $status

@@ -4,7 +4,7 @@
 # only when something is missing.
 #
 # Usage: scripts/deps.sh [native] [aarch64] [armhf] [bench] [vm]
-#   native   compiler, CMake, the libraries and test tools (jq for the docs
+#   native   compiler, CMake, ccache, the libraries and test tools (jq for the docs
 #            test's hostile-ADC run) (default)
 #   aarch64  cross compiler, qemu-user and the arm64 libraries (adds the dpkg
 #            architecture arm64 if it is missing, and says so first)
@@ -38,7 +38,7 @@ cross_catch2=()  # target architectures whose Catch2 3 library is unpacked priva
 for w in "${want[@]}"; do
   case "$w" in
     native)
-      pkgs+=(build-essential cmake pkg-config file libeigen3-dev libgpiod-dev "$catch2" libcli11-dev
+      pkgs+=(build-essential cmake ccache pkg-config file libeigen3-dev libgpiod-dev "$catch2" libcli11-dev
              libtomlplusplus-dev nlohmann-json3-dev libbenchmark-dev
              libfuse3-dev  # the board emulator, gyrotc-emu (docs/EMULATOR.md)
              systemd  # systemd-analyze for tests/deploy
