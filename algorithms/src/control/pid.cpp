@@ -4,7 +4,6 @@
 #include <cmath>
 #include <stdexcept>
 #include <string>
-#include <utility>
 
 namespace gyrotc::control {
 
@@ -54,14 +53,13 @@ void IncrementalPid::reset(double output) noexcept {
   e1_ = 0.0;
   e2_ = 0.0;
   started_ = false;
-  resuming_ = false;
   saturated_ = false;
   integrating_ = false;
 }
 
-void IncrementalPid::resume(double output) noexcept {
-  reset(output);
-  resuming_ = true;
+double IncrementalPid::integral() const noexcept {
+  // v = -(Kp e(k) + KD (e(k) - e(k-1))) + I after a step, e(k) = e1_, e(k-1) = e2_.
+  return started_ ? state_ + params_.kp * e1_ + c_ * (e1_ - e2_) : state_;
 }
 
 double IncrementalPid::step(double measured, double setpoint) noexcept {
@@ -78,11 +76,10 @@ double IncrementalPid::step(double measured, double setpoint, double out_min, do
   const double e = measured - setpoint;  // seed: e(k) = c(k) - r(k)
   if (!started_) {
     // Bumpless: pretend the error has been e for ever, so the derivative is
-    // zero and v(k-1) = -Kp e + I0 (the positional value with integral I0);
-    // after resume() v(k-1) is the output itself.
+    // zero and v(k-1) = -Kp e + I0 (the positional value with integral I0).
     e1_ = e;
     e2_ = e;
-    if (!std::exchange(resuming_, false)) state_ -= params_.kp * e;
+    state_ -= params_.kp * e;
     started_ = true;
   }
   // Output sign is opposite to Eq. 17's u: positive output heats.

@@ -199,12 +199,12 @@ void Controller::record_command(double current_a) noexcept {
   drive_hi_a_ = std::max(drive_hi_a_, current_a);
 }
 
-TecCommand Controller::off(double now_s, bool resume, double resume_a) noexcept {
+TecCommand Controller::off(double now_s, bool resume) noexcept {
   set_flag(kFlagTecOff, true);
   set_flag(kFlagTecSaturated, false);
   if (pid_running_) {
     resume_ = resume;
-    resume_a_ = resume ? resume_a : 0.0;
+    resume_integral_a_ = resume ? pid_.integral() : 0.0;
   }
   pid_running_ = false;
   pid_.reset(0.0);
@@ -223,7 +223,7 @@ void Controller::apply_reload(const ControllerConfig& next) noexcept {
   config_.setpoint_ramp_c_per_s = next.setpoint_ramp_c_per_s;
   config_.rail = next.rail;
   pid_.retune(next.pid);
-  resume_a_ = std::clamp(resume_a_, next.pid.out_min, next.pid.out_max);
+  resume_integral_a_ = std::clamp(resume_integral_a_, next.pid.out_min, next.pid.out_max);
   applied_.store(&next, std::memory_order_release);
 }
 
@@ -257,14 +257,14 @@ TecCommand Controller::on_pid_tick(double now_s) noexcept {
   if (program_ != nullptr && (flags_ & kTempFaults) != 0) return off(now_s, false);
   // A reading that went stale (invalid ones only, since the last valid one)
   // ends a hold: off, to restart where the PID was once readings are good.
-  if ((flags_ & kFlagTempStale) != 0) return off(now_s, true, pid_.output());
+  if ((flags_ & kFlagTempStale) != 0) return off(now_s, true);
   // A dead ADC: off, to restart where the PID was once samples come again.
-  if ((flags_ & kFlagAdcStalled) != 0) return off(now_s, true, pid_.output());
+  if ((flags_ & kFlagAdcStalled) != 0) return off(now_s, true);
   const std::uint32_t stop = kFlagTempStuck | kFlagOverTempLatched | kFlagOpa548Thermal;
   if ((flags_ & stop) != 0 || !config_.pid_enabled || program_finished()) return off(now_s, false);
   if (program_ != nullptr) return program_tick(now_s);
   if ((flags_ & kFlagTempInvalid) != 0) {
-    if (!pid_running_) return off(now_s, resume_, resume_a_);  // not recovered yet (M good readings)
+    if (!pid_running_) return off(now_s, resume_);  // not recovered yet (M good readings)
     // Glitch tolerance: no valid reading this period, only invalid ones.
     // Hold the last current (no step on old news) until the reading is stale.
     if (!new_reading) {
@@ -277,16 +277,14 @@ TecCommand Controller::on_pid_tick(double now_s) noexcept {
 
   const double dt_s = pid_running_ ? now_s - last_tick_s_ : 0.0;
   if (!pid_running_) {
-    // Bumpless: after a sensor fault (stale) or a dead ADC the PID goes on from
-    // the current it stopped at; after any other stop it starts from 0 A with
-    // its proportional part. No derivative kick either way.
-    if (resume_) {
-      pid_.resume(resume_a_);
-    } else {
-      pid_.reset(0.0);
-    }
+    // After a sensor fault (stale) or a dead ADC the PID restarts with the
+    // integral it had (what it learnt of the load), its proportional part on
+    // the error now: a casing that cooled while the TEC was off is heated
+    // back (IncrementalPid::integral). After any other stop it starts from
+    // 0 A. No derivative kick either way.
+    pid_.reset(resume_ ? resume_integral_a_ : 0.0);
     resume_ = false;
-    resume_a_ = 0.0;
+    resume_integral_a_ = 0.0;
     active_setpoint_c_ = config_.setpoint_ramp_c_per_s > 0.0 ? casing_c_ : config_.setpoint_c;
     pid_running_ = true;
   }

@@ -133,15 +133,32 @@ TEST_CASE("bumpless start: no derivative kick, output continues from reset value
   CHECK(fresh.step(54.7, 55.0) == Approx(0.48 * 0.3 + 0.32 * 0.3));
 }
 
-TEST_CASE("resume continues from the output it is given, adding only the integral step") {
+TEST_CASE("the integral is the output less its proportional and derivative parts") {
   IncrementalPid pid{PidParams{}};
-  pid.resume(0.9);
-  // e = -0.25: the first step is 0.9 + KI * 0.25, with no proportional part
-  // added again (reset(0.9) would add Kp * 0.25 = 0.12 A) and no derivative kick.
-  CHECK(pid.step(54.75, 55.0) == Approx(0.9 + 0.32 * 0.25).margin(1e-12));
-  IncrementalPid started{PidParams{}};
-  started.reset(0.9);
-  CHECK(started.step(54.75, 55.0) == Approx(0.9 + 0.48 * 0.25 + 0.32 * 0.25).margin(1e-12));
+  CHECK(pid.integral() == 0.0);
+  pid.reset(0.3);
+  CHECK(pid.integral() == Approx(0.3));  // before a step: the reset value
+  pid.step(54.8, 55.0);                  // in the band: P + I step
+  pid.step(54.9, 55.0);
+  const double kd = PidParams{}.kd();
+  // v = -(Kp e + KD (e(k) - e(k-1))) + I with e = -0.1, e(k-1) = -0.2.
+  CHECK(pid.integral() == Approx(pid.output() + 0.48 * -0.1 + kd * (-0.1 + 0.2)).margin(1e-12));
+  CHECK(pid.integral() == Approx(0.3 + 0.32 * 0.2 + 0.32 * 0.1).margin(1e-12));  // the two integral steps
+}
+
+TEST_CASE("a restart from the integral answers an error that grew while stopped with its proportional part") {
+  // Held at 55 C with 0.2 A of integral; the TEC went off and the casing
+  // fell to 52 C. Restarted from the integral, the PD heats with Kp * 3 C
+  // more; restarted from the whole output it would hold 0.2 A at 52 C, and
+  // outside the band nothing would ever move it.
+  IncrementalPid pid{PidParams{}};
+  pid.reset(0.2);
+  pid.step(55.0, 55.0);
+  const double integral = pid.integral();
+  CHECK(integral == Approx(0.2));
+  IncrementalPid restarted{PidParams{}};
+  restarted.reset(integral);
+  CHECK(restarted.step(52.0, 55.0) == Approx(0.2 + 0.48 * 3.0).margin(1e-12));
 }
 
 TEST_CASE("output stays within the limits and reports saturation") {

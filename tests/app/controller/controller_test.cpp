@@ -186,7 +186,7 @@ TEST_CASE("invalid readings hold the TEC until the stale limit, then turn it off
         (kFlagTempStale | kFlagTempInvalid | kFlagTecOff));
 }
 
-TEST_CASE("after a sensor fault the PID restarts bumplessly where it stopped, once M good readings came") {
+TEST_CASE("after a sensor fault at an unchanged casing the PID restarts where it stopped, once M good readings came") {
   PeriodHarness h;
   for (int i = 0; i < 40; ++i) h.good_period(54.9);
   const double held_a = h.controller.last_command().current_a;
@@ -203,6 +203,24 @@ TEST_CASE("after a sensor fault the PID restarts bumplessly where it stopped, on
   // from 0 A, and without the proportional part counted a second time.
   const double ki = ControllerConfig{}.pid.ki();
   CHECK(cmd.current_a == Approx(held_a + ki * 0.1).margin(1e-9));
+}
+
+TEST_CASE("after a sensor fault during which the casing cooled the PID restarts with its integral and heats the fall back") {
+  PeriodHarness h;
+  for (int i = 0; i < 10; ++i) h.good_period(54.9);
+  const double held_a = h.controller.last_command().current_a;
+  for (int i = 0; i < 5; ++i) h.period(bad(h.now_s + 1.25, TempFault::crc));
+  REQUIRE_FALSE(h.controller.last_command().enable);
+  // The TEC was off: the casing is 2 C colder when the readings come back.
+  h.good_period(52.9);
+  h.good_period(52.9);
+  const TecCommand cmd = h.good_period(52.9);
+  REQUIRE(cmd.enable);
+  // The held current plus Kp for each degree of the fall (PD outside the
+  // band). Restarted from the held output instead, the PD would take 52.9 C
+  // for its setpoint and hold the casing there.
+  const double kp = ControllerConfig{}.pid.kp;
+  CHECK(cmd.current_a == Approx(held_a + kp * 2.0).margin(1e-9));
 }
 
 TEST_CASE("with invalid readings between valid ones the PID keeps regulating on the valid ones") {

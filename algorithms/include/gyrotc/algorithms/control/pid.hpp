@@ -63,9 +63,12 @@ void validate(const PidParams& params);
 // Bumpless start: reset(output) makes the integral part start at `output` and
 // the first step after it uses e(k-1) = e(k-2) = e(k), so there is no
 // derivative kick; a start at zero error continues exactly at `output`.
-// Bumpless restart: resume(output) continues a PID that was stopped with that
-// output (a sensor fault): the whole output, its proportional part included,
-// carries over, so the first step is `output` plus the integral step alone.
+// Restart after a stop (a sensor fault): reset(integral()) as it was at the
+// stop. The integral is what the PID learnt of the load; the proportional
+// part answers the error as it is now. Restarting from the whole output
+// instead would take the error at the restart for the setpoint's: outside
+// the separation band the PD has no integral to undo that, and a casing that
+// fell 3 C while the TEC was off stayed 3 C low for good.
 //
 // Real-time safe: step() does not allocate, lock or throw. A non-finite
 // measurement or setpoint leaves the state and the output unchanged.
@@ -82,9 +85,6 @@ class IncrementalPid {
   // Clears the error history; the integral part restarts at `output` (clamped
   // to the output limits).
   void reset(double output = 0.0) noexcept;
-  // Clears the error history; the next step continues from `output` (clamped)
-  // as the whole PID output, not as its integral part.
-  void resume(double output) noexcept;
   // New gains, period, band and limits from the next step on, bumplessly: the
   // output and the error history carry over, so the velocity form's next
   // increment is the new gains' answer to the error's change (no proportional
@@ -94,6 +94,9 @@ class IncrementalPid {
   void retune(const PidParams& params) noexcept;
 
   double output() const noexcept { return output_; }
+  // The integral part I of the last output, v = -(Kp e + KD (e(k) - e(k-1))) + I;
+  // before the first step, the value reset() started it at.
+  double integral() const noexcept;
   // True when the last step's unclamped output lay outside the limits.
   bool saturated() const noexcept { return saturated_; }
   // True when the last step ran with the integral term (beta = 1).
@@ -117,7 +120,6 @@ class IncrementalPid {
   double e1_ = 0.0;      // e(k-1)
   double e2_ = 0.0;      // e(k-2)
   bool started_ = false;
-  bool resuming_ = false;  // the first step after resume(): no proportional part to take out
   bool saturated_ = false;
   bool integrating_ = false;
 };

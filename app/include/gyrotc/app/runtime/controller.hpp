@@ -183,9 +183,9 @@ class Controller {
 
   void set_flag(std::uint32_t flag, bool on) noexcept;
   void record_command(double current_a) noexcept;
-  // TEC off. With `resume`, the PID (if it was running) restarts from
-  // resume_a bumplessly (IncrementalPid::resume); without, from 0 A.
-  TecCommand off(double now_s, bool resume, double resume_a = 0.0) noexcept;
+  // TEC off. With `resume`, the PID (if it was running) restarts with the
+  // integral it has now (IncrementalPid::integral); without, from 0 A.
+  TecCommand off(double now_s, bool resume) noexcept;
   TecCommand drive(double current_a, bool saturated, double now_s) noexcept;
   // The current the stage can apply now: out_min/out_max within the rails.
   control::CurrentRange applied_range() const noexcept;
@@ -236,7 +236,7 @@ class Controller {
   bool pid_running_ = false;
   bool reading_since_tick_ = false;  // a valid casing reading came since the last tick
   bool resume_ = false;              // the next start continues the PID where a fault stopped it
-  double resume_a_ = 0.0;            // the PID output to restart from
+  double resume_integral_a_ = 0.0;   // the PID integral to restart with
   control::TecProgram* program_ = nullptr;
   bool program_started_ = false;
   double program_start_s_ = 0.0;
