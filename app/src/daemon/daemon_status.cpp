@@ -18,7 +18,8 @@ namespace {
 // The flags that stop the TEC or make the rate output invalid: a "fault".
 // model_clamped (compensated at the calibration's end) is reported, not a fault.
 constexpr std::uint32_t kFaultFlags = kFlagTempStale | kFlagTempInvalid | kFlagTempStuck | kFlagOverTempLatched |
-                                      kFlagOpa548Thermal | kFlagAdcInvalid | kFlagAdcStalled;
+                                      kFlagOpa548Thermal | kFlagAdcInvalid | kFlagAdcStalled | kFlagTecWriteFailed |
+                                      kFlagRateDacFailed;
 
 std::vector<std::string> names_of(std::uint32_t flags) {
   std::vector<std::string> names;

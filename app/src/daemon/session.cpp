@@ -76,6 +76,9 @@ class FaultReporter {
       {kFlagAdcStalled, "no ADS1251 sample for failsafe.adc_stall_s (DRDY stopped or every read fails): TEC off "
                         "until samples return"},
       {kFlagModelClamped, "casing (or die) temperature outside the calibration's range: compensated at its end"},
+      {kFlagTecWriteFailed, "the TEC DAC or the OPA548's E/S line refused a write (SPI or GPIO error): TEC off, "
+                            "retried every PID period"},
+      {kFlagRateDacFailed, "the rate DAC refused a write (SPI error): the analog rate output is stale"},
   };
   static std::size_t index(std::uint32_t flag) { return static_cast<std::size_t>(__builtin_ctz(flag)); }
 

@@ -76,6 +76,8 @@ const char* flag_name(std::uint32_t flag) noexcept {
     case kFlagTecSaturated: return "tec_saturated";
     case kFlagTecOff: return "tec_off";
     case kFlagAdcStalled: return "adc_stalled";
+    case kFlagTecWriteFailed: return "tec_write_failed";
+    case kFlagRateDacFailed: return "rate_dac_failed";
     default: return "";
   }
 }
@@ -354,16 +356,25 @@ TecCommand Controller::program_tick(double now_s) noexcept {
   return drive(current_a, current_a != out.current_a, now_s);
 }
 
+void Controller::on_tec_applied(bool ok, double now_s) noexcept {
+  set_flag(kFlagTecWriteFailed, !ok);
+  if (!ok && command_.enable) (void)off(now_s, true);
+  command_.flags = flags_;
+}
+
 TecCommand run_pid_tick(Controller& controller, hal::TecDriver& tec, double now_s) noexcept {
   const auto thermal = tec.thermal_status();
   controller.on_opa548_thermal(!thermal.ok() || thermal.value() == hal::ThermalStatus::shutdown, now_s);
   const TecCommand command = controller.on_pid_tick(now_s);
-  if (command.enable && tec.set_current_a(command.current_a)) {
-    (void)tec.enable(true);
+  bool applied = false;
+  if (command.enable) {
+    applied = tec.set_current_a(command.current_a).ok() && tec.enable(true).ok();
+    if (!applied) (void)tec.safe_off();  // not enabled at a current the DAC may not hold
   } else {
-    (void)tec.safe_off();
+    applied = tec.safe_off().ok();
   }
-  return command;
+  controller.on_tec_applied(applied, now_s);
+  return controller.last_command();
 }
 
 double RowAccumulator::mean_gyro_mv() const noexcept {
@@ -377,21 +388,21 @@ double RowAccumulator::mean_rate_dps() const noexcept {
 SampleResult run_sample_tick(Controller& controller, hal::RateDac& rate_dac, const hal::AdcSample& sample,
                              double now_s, RowAccumulator& row) noexcept {
   const SampleResult r = controller.on_sample(sample, now_s);
-  (void)rate_dac.write_v(r.rate_out_v);
+  controller.on_rate_output(rate_dac.write_v(r.rate_out_v).ok());
   row.gyro_sum_mv += sample.gyro_mv;
   ++row.gyro_count;
   if (r.valid) {
     row.rate_sum_dps += r.rate_dps;
     ++row.rate_count;
   }
-  row.flags |= r.flags;
+  row.flags |= controller.flags();
   return r;
 }
 
 void run_adc_timeout_tick(Controller& controller, hal::RateDac& rate_dac, double now_s,
                           RowAccumulator& row) noexcept {
   controller.on_adc_timeout(now_s);
-  (void)rate_dac.write_v(0.5 * controller.config().rate_dac_vref_v);
+  controller.on_rate_output(rate_dac.write_v(0.5 * controller.config().rate_dac_vref_v).ok());
   row.flags |= controller.flags();
 }
 

@@ -25,6 +25,9 @@ Status SimAd5060::do_configure(const SpiConfig& config) noexcept {
 }
 
 Status SimAd5060::do_transfer(std::span<const std::uint8_t> tx, std::span<std::uint8_t> rx) noexcept {
+  if (spi_error_.load(std::memory_order_relaxed)) {
+    return Error::make(ErrorCode::io, "%s: SPI transfer failed (injected fault)", name_.c_str());
+  }
   if (!configured_) return Error::make(ErrorCode::invalid_config, "%s: SPI not configured", name_.c_str());
   if (tx.size() != 3 || rx.size() != 3 || speed_hz_ > kMaxSclkHz) {
     for (std::uint8_t& b : rx) b = 0;  // the AD5060 has no data output

@@ -197,3 +197,36 @@ TEST_CASE("fault: casing over-temperature latches the TEC off even after good re
   CHECK(rig.tec_off());
   CHECK((rig.controller().flags() & app::kFlagOverTempLatched) != 0);
 }
+
+TEST_CASE("fault: the TEC DAC's SPI failing turns the TEC off within a PID period, named, reported at 0 A, and retried") {
+  Rig rig;
+  warm_up(rig);
+  rig.sim().inject_tec_dac_spi_error(true);
+  rig.run(rig.pid_period_s() + 1.0);
+  CHECK_FALSE(rig.sim().opa548_chip().output_enabled());  // E/S low: the DAC's last code drives nothing
+  CHECK((rig.controller().flags() & (app::kFlagTecWriteFailed | app::kFlagTecOff)) ==
+        (app::kFlagTecWriteFailed | app::kFlagTecOff));
+  // What the status line and the rows show: no current the stage is not driving.
+  CHECK_FALSE(rig.controller().last_command().enable);
+  CHECK(rig.controller().last_command().current_a == 0.0);
+  CHECK(rig.runner().status().tec_a == 0.0);
+  CHECK((rig.take_row_flags() & app::kFlagTecWriteFailed) != 0);
+  rig.sim().inject_tec_dac_spi_error(false);
+  rig.run(rig.pid_period_s() + 1.0);
+  CHECK(rig.tec_driving());
+  CHECK((rig.controller().flags() & app::kFlagTecWriteFailed) == 0);
+}
+
+TEST_CASE("fault: the rate DAC's SPI failing is named while the temperature loop goes on") {
+  Rig rig;
+  warm_up(rig);
+  rig.sim().inject_rate_dac_spi_error(true);
+  rig.run(1.0);
+  CHECK((rig.controller().flags() & app::kFlagRateDacFailed) != 0);
+  CHECK((rig.take_row_flags() & app::kFlagRateDacFailed) != 0);
+  rig.run(2.0 * rig.pid_period_s());
+  CHECK(rig.tec_driving());  // the TEC path needs no rate DAC
+  rig.sim().inject_rate_dac_spi_error(false);
+  rig.run(1.0);
+  CHECK((rig.controller().flags() & app::kFlagRateDacFailed) == 0);
+}

@@ -32,6 +32,8 @@ enum ControllerFlag : std::uint32_t {
   kFlagTecSaturated = 1u << 7,    // the PID output is at its limit
   kFlagTecOff = 1u << 8,          // the TEC is commanded off (0 A, OPA548 disabled)
   kFlagAdcStalled = 1u << 9,      // no ADC sample for adc_stall_s: TEC off until samples return
+  kFlagTecWriteFailed = 1u << 10, // the TEC DAC or the OPA548's E/S line refused the command: TEC off, retried
+  kFlagRateDacFailed = 1u << 11,  // the rate DAC refused the compensated output: the analog rate is stale
 };
 
 // The name of each flag bit (for the journal); "" for a bit that is none.
@@ -138,6 +140,14 @@ class Controller {
   // ones the PID restarts bumplessly from where it stopped. A programme gets
   // 0 A in any period with a sensor fault.
   TecCommand on_pid_tick(double now_s) noexcept;
+  // What became of the period's command on the board (run_pid_tick): a
+  // command the TEC path refused (a failed SPI transfer to the DAC, a failed
+  // E/S write) leaves the TEC off, flagged; the controller takes it as off
+  // (last_command() reports 0 A, disabled) and tries again next period,
+  // restarting the PID with its integral once the path takes a command.
+  void on_tec_applied(bool ok, double now_s) noexcept;
+  // Whether the rate DAC took the last sample's output (run_sample_tick).
+  void on_rate_output(bool ok) noexcept { set_flag(kFlagRateDacFailed, !ok); }
   // From the next PID period on, the programme sets the TEC current instead of
   // the PID, under the same fail-safes and limits, until it says it is
   // finished; then the TEC stays off. Not owned; nullptr returns to the PID.

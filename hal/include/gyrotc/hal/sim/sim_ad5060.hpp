@@ -39,6 +39,9 @@ class SimAd5060 final : public SpiBus {
   Ad5060PowerDown mode() const noexcept { return mode_; }
   std::uint64_t frames() const noexcept { return frames_; }
   std::uint64_t ignored_frames() const noexcept { return ignored_frames_; }
+  // Fault injection (any thread): every transfer fails as a broken SPI
+  // controller's does (EIO), and the part keeps its last code.
+  void set_spi_error(bool on) noexcept { spi_error_.store(on, std::memory_order_relaxed); }
 
  private:
   Status do_configure(const SpiConfig& config) noexcept override;
@@ -54,6 +57,7 @@ class SimAd5060 final : public SpiBus {
   std::uint16_t code_ = 0;
   Ad5060PowerDown mode_ = Ad5060PowerDown::normal;
   std::atomic<double> output_v_{0.0};
+  std::atomic<bool> spi_error_{false};
   std::uint64_t frames_ = 0;
   std::uint64_t ignored_frames_ = 0;
 };

@@ -118,6 +118,8 @@ class SimBoard final : ClockListener, SimAds1251::Input, SimAd5060::Listener, Si
   void inject_ambient_sensor_fault(SimTempFault fault) noexcept { ambient_chip_.set_fault(fault); }
   void inject_drdy_stall(bool on) noexcept { adc_chip_.set_drdy_stall(on); }
   void inject_spi_error(bool on) noexcept { adc_chip_.set_spi_error(on); }
+  void inject_rate_dac_spi_error(bool on) noexcept { rate_dac_chip_.set_spi_error(on); }
+  void inject_tec_dac_spi_error(bool on) noexcept { tec_dac_chip_.set_spi_error(on); }
   void inject_opa548_thermal_shutdown(bool on) noexcept { opa548_chip_.inject_thermal_shutdown(on); }
 
   // What the simulated hardware shows (any thread).
