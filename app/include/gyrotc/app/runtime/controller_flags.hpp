@@ -1,0 +1,38 @@
+#pragma once
+
+#include <cstdint>
+#include <string>
+
+// The flags the Controller reports with every sample and TEC command: one
+// word, each bit owned by the part of the controller that raises it
+// (runtime/rate_output, runtime/fault_supervisor, runtime/tec_loop).
+namespace gyrotc::app {
+
+enum ControllerFlag : std::uint32_t {
+  kFlagTempStale = 1u << 0,       // no valid casing reading measured in the last stale_periods PID periods
+  kFlagTempInvalid = 1u << 1,     // an invalid casing reading (CRC, 85 C reset, range) since the last M good ones
+  kFlagTempStuck = 1u << 2,       // the casing reading has not changed while the TEC drives
+  kFlagOverTempLatched = 1u << 3, // casing over-temperature: TEC off until restart
+  kFlagOpa548Thermal = 1u << 4,   // the OPA548 reports thermal shutdown
+  kFlagAdcInvalid = 1u << 5,      // ADC timeout or clipped sample: the rate output is invalid
+  kFlagModelClamped = 1u << 6,    // compensation temperature outside the calibrated range
+  kFlagTecSaturated = 1u << 7,    // the PID output is at its limit
+  kFlagTecOff = 1u << 8,          // the TEC is commanded off (0 A, OPA548 disabled)
+  kFlagAdcStalled = 1u << 9,      // no ADC sample for adc_stall_s: TEC off until samples return
+  kFlagTecWriteFailed = 1u << 10, // the TEC DAC or the OPA548's E/S line refused the command: TEC off, retried
+  kFlagRateDacFailed = 1u << 11,  // the rate DAC refused the compensated output: the analog rate is stale
+};
+
+// The name of each flag bit (for the journal); "" for a bit that is none.
+const char* flag_name(std::uint32_t flag) noexcept;
+// Every flag set in `flags` by name, joined by '+' ("tec_off+model_clamped"),
+// "none" for none and "bit N" for a bit that is no flag: what a person reads
+// in place of the CSV's number.
+std::string flag_names(std::uint32_t flags);
+
+// Sets or clears `flag` in `flags`.
+constexpr void set_flag(std::uint32_t& flags, std::uint32_t flag, bool on) noexcept {
+  flags = on ? (flags | flag) : (flags & ~flag);
+}
+
+}  // namespace gyrotc::app
