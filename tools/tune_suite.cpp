@@ -141,6 +141,8 @@ struct Outcome {
   bool rail_reached = false;
   std::string tune_error;  // tune refused the record
   LoopFigures data, tuned, paper;
+  LoopFigures oracle;        // the model-based loop designed on the plant's own physics (issue 72)
+  std::string oracle_error;  // its design failed
   bool pass = false;
   std::string verdict;
 };
@@ -245,6 +247,11 @@ Outcome run_variant(const Variant& v, const std::string& dir) {
   }
   o.tuned = fig26(v.plant, config_for(app::ControllerMode::tuned, v));
   o.paper = fig26(v.plant, config_for(app::ControllerMode::paper, v));
+  try {
+    o.oracle = fig26(v.plant, config_for(app::ControllerMode::oracle, v));
+  } catch (const std::invalid_argument& e) {
+    o.oracle_error = e.what();
+  }
 
   // The issue's criteria, against the seed's controller on the same plant.
   std::vector<std::string> fails;
@@ -298,7 +305,7 @@ void plot_variant(const Outcome& o, const std::string& path) {
   panel.y.max = 0.5;
   panel.bands = {{"±0.3 °C band", -0.3, 0.3, "#2ca02c", false}};
   const std::pair<const char*, const LoopFigures*> loops[] = {
-      {"tuned from data", &o.data}, {"tuned (fixed)", &o.tuned}, {"paper", &o.paper}};
+      {"oracle", &o.oracle}, {"tuned from data", &o.data}, {"tuned (fixed)", &o.tuned}, {"paper", &o.paper}};
   for (const auto& [label, loop] : loops) {
     app::plot::Series s;
     s.label = label;
@@ -332,15 +339,15 @@ void plot_summary(const std::vector<Outcome>& outcomes, const std::string& path)
   errors.y.scale = app::plot::Scale::log;
   app::plot::Panel settle;
   settle.y.title = "settle / physical minimum";
-  const char* labels[] = {"tuned from data", "tuned (fixed)", "paper"};
-  for (int c = 0; c < 3; ++c) {
+  const char* labels[] = {"oracle", "tuned from data", "tuned (fixed)", "paper"};
+  for (int c = 0; c < 4; ++c) {
     app::plot::Series e;
     app::plot::Series s;
     e.label = labels[c];
     s.label = labels[c];
     for (std::size_t k = 0; k < outcomes.size(); ++k) {
       const Outcome& o = outcomes[k];
-      const LoopFigures& l = c == 0 ? o.data : (c == 1 ? o.tuned : o.paper);
+      const LoopFigures& l = c == 0 ? o.oracle : c == 1 ? o.data : c == 2 ? o.tuned : o.paper;
       e.x.push_back(static_cast<double>(k + 1));
       e.y.push_back(l.error_c > 0.0 ? l.error_c : std::nan(""));
       s.x.push_back(static_cast<double>(k + 1));
@@ -361,14 +368,16 @@ void plot_summary(const std::vector<Outcome>& outcomes, const std::string& path)
 
 std::string table(const std::vector<Outcome>& outcomes, const std::string& plots_dir) {
   std::ostringstream md;
-  md << "| # | variant | feasible | t_min s | tune CPU s | fit rms C | data settle s | data err C | tuned settle s | "
-        "tuned err C | paper settle s | paper err C | verdict |\n";
+  md << "| # | variant | feasible | t_min s | oracle settle s | oracle err C | tune CPU s | fit rms C | data settle s | "
+        "data err C | tuned settle s | tuned err C | paper settle s | paper err C | verdict |\n";
   // err: the in-band error over the fixed window (from 1800 s, ambient -20..35 C).
-  md << "|---|---|---|---|---|---|---|---|---|---|---|---|---|\n";
+  md << "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n";
   for (std::size_t k = 0; k < outcomes.size(); ++k) {
     const Outcome& o = outcomes[k];
     md << "| " << k + 1 << " | " << o.variant.name << " | "
        << (o.feasible ? std::string("yes") : "no: " + o.infeasible_why) << " | " << num(o.minimum_s, "%.0f") << " | "
+       << (o.oracle_error.empty() ? num(o.oracle.settle_s, "%.0f") : "design failed") << " | "
+       << (o.oracle_error.empty() ? num(o.oracle.error_c, "%.3f") : "-") << " | "
        << (o.tune_error.empty() ? num(o.tune_s, "%.2f") : "refused") << " | "
        << (o.tune_error.empty() ? num(o.fit_rms_c, "%.3f") : "-") << " | " << num(o.data.settle_s, "%.0f") << " | "
        << num(o.data.error_c, "%.3f") << " | " << num(o.tuned.settle_s, "%.0f") << " | "
@@ -540,10 +549,14 @@ int run(const Options& opt) {
     }
     outcomes.push_back(run_variant(all[k], opt.work + "/" + std::to_string(k + 1) + "_" + slug));
     const Outcome& o = outcomes.back();
-    std::fprintf(stderr, "[%zu/%zu] %-36s t_min %5.0f | data %5.0f s %.3f C | tuned %5.0f s %.3f C | paper %5.0f s %.3f C | %s%s\n",
-                 k + 1, all.size(), o.variant.name.c_str(), o.minimum_s, o.data.settle_s, o.data.error_c,
+    std::fprintf(stderr,
+                 "[%zu/%zu] %-36s t_min %5.0f | oracle %5.0f s %.3f C | data %5.0f s %.3f C | tuned %5.0f s %.3f C | "
+                 "paper %5.0f s %.3f C | %s%s%s\n",
+                 k + 1, all.size(), o.variant.name.c_str(), o.minimum_s, o.oracle.settle_s, o.oracle.error_c,
+                 o.data.settle_s, o.data.error_c,
                  o.tuned.settle_s, o.tuned.error_c, o.paper.settle_s, o.paper.error_c, o.verdict.c_str(),
-                 o.feasible ? "" : " (infeasible plant)");
+                 o.feasible ? "" : " (infeasible plant)",
+                 o.oracle_error.empty() ? "" : (" (oracle: " + o.oracle_error + ")").c_str());
   }
   if (!opt.only.empty()) {
     std::size_t passed = 0;
@@ -602,7 +615,28 @@ int run(const Options& opt) {
   md << "- Network plants: " << networks_passed << " of " << networks_feasible << " feasible ones pass (" << networks
      << " in all).\n";
   md << "- Largest in-band error of the tuned-from-data loop on a feasible variant: " << num(worst_error, "%.3f")
-     << " C. Slowest `tune` (identify + design, CPU time, Release): " << num(worst_tune_s, "%.2f") << " s.\n\n";
+     << " C. Slowest `tune` (identify + design, CPU time, Release): " << num(worst_tune_s, "%.2f") << " s.\n";
+  // The reference (issue 72): what the loop that knows the plant reaches.
+  double oracle_worst_error = 0.0;
+  double oracle_worst_excess_s = 0.0;
+  std::size_t oracle_settled = 0;
+  std::size_t oracle_failed = 0;
+  for (const auto& o : outcomes) {
+    if (!o.feasible) continue;
+    if (!o.oracle_error.empty()) {
+      ++oracle_failed;
+      continue;
+    }
+    oracle_worst_error = std::max(oracle_worst_error, o.oracle.error_c);
+    if (o.oracle.settle_s >= 0.0) {
+      ++oracle_settled;
+      oracle_worst_excess_s = std::max(oracle_worst_excess_s, o.oracle.settle_s - o.minimum_s);
+    }
+  }
+  md << "- The reference loop (`oracle`: designed on the plant's own physics) on the " << feasible
+     << " feasible variants: settles on " << oracle_settled << ", at most " << num(oracle_worst_excess_s, "%.0f")
+     << " s after the physical minimum; largest in-band error " << num(oracle_worst_error, "%.3f") << " C"
+     << (oracle_failed > 0 ? "; its design failed on " + std::to_string(oracle_failed) : std::string()) << ".\n\n";
   md << table(outcomes, opt.out);
   md << "\nThe random combinations (every parameter's factor uniform in 0.5..1.5):\n\n";
   for (std::size_t k = 0; k < outcomes.size(); ++k) {

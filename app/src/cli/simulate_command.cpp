@@ -368,9 +368,11 @@ void print_text(const nlohmann::json& j, const std::optional<std::string>& csv,
 
 // A preset by name, or a controller file (tune's output) on the plant's limits.
 ControllerConfig controller_for(const std::string& name, const model::PlantParams& plant) {
-  if (name == "paper" || name == "tuned" || name == "off") return controller_preset(parse_controller_mode(name), plant);
+  if (name == "paper" || name == "tuned" || name == "off" || name == "oracle") {
+    return controller_preset(parse_controller_mode(name), plant);
+  }
   if (!std::filesystem::is_regular_file(name)) {
-    throw InputError("--controller '" + name + "': neither paper, tuned, off nor a controller file");
+    throw InputError("--controller '" + name + "': neither paper, tuned, off, oracle nor a controller file");
   }
   return apply_controller_file(load_controller_file(name), controller_preset(ControllerMode::paper, plant), name);
 }
@@ -530,8 +532,9 @@ void add_simulate_command(CLI::App& app) {
       ->capture_default_str();
   cmd->add_option("--controller", options->controller,
                   "paper: the seed's integral-separated PID; tuned: ours (retuned gains, feed-forward "
-                  "from the ambient sensor); off: TEC off, compensation only; or a controller file "
-                  "(TOML) as `gyrotc tune` writes it")
+                  "from the ambient sensor); off: TEC off, compensation only; oracle: the model-based loop "
+                  "designed on the plant's own physics (the reference: what a loop that knows the plant "
+                  "holds); or a controller file (TOML) as `gyrotc tune` writes it")
       ->capture_default_str();
   cmd->add_option("--plant", options->plant, "plant description (TOML); default: the documented defaults");
   cmd->add_option("--calibration", options->calibration,

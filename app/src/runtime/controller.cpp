@@ -31,6 +31,10 @@ void validate(const ControllerConfig& c) {
             "neg_a must be below pos_a");
     require(std::isfinite(c.rail.a_per_c) && c.rail.a_per_c >= 0.0, "rail.a_per_c", "must be zero or positive");
   }
+  if (c.observer) {
+    require(std::fabs(c.observer->spec.period_s - c.pid.period_s) <= 1e-9 * c.pid.period_s, "observer",
+            "its design's period must be the control period");
+  }
   require(std::isfinite(c.rate_dac_vref_v) && c.rate_dac_vref_v > 0.0, "rate_dac_vref_v",
           "must be positive");
   require(std::isfinite(c.rate_out_v_per_dps) && c.rate_out_v_per_dps > 0.0, "rate_out_v_per_dps",
@@ -128,7 +132,7 @@ const TecCommand& Controller::decide(double now_s) noexcept {
     // Hold the last current (no step on old news) until the reading is stale.
     if (!new_reading) return loop_.hold(now_s);
   }
-  return loop_.pid_tick(now_s, casing_c, ambient_c);
+  return loop_.pid_tick(now_s, casing_c, ambient_c, now_s - supervisor_.casing_time_s());
 }
 
 void Controller::on_tec_applied(bool ok, double now_s) noexcept {

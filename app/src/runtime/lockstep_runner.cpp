@@ -4,10 +4,12 @@
 #include <cmath>
 #include <cstdio>
 #include <limits>
+#include <memory>
 #include <stdexcept>
 #include <utility>
 
 #include "gyrotc/algorithms/fit/compensator.hpp"
+#include "gyrotc/algorithms/model/plant_housing.hpp"
 #include "gyrotc/app/runtime/record_columns.hpp"
 #include "gyrotc/app/support/errors.hpp"
 #include "gyrotc/hal/chips/ads1251.hpp"
@@ -151,7 +153,8 @@ ControllerMode parse_controller_mode(const std::string& name) {
   if (name == "paper") return ControllerMode::paper;
   if (name == "tuned") return ControllerMode::tuned;
   if (name == "off") return ControllerMode::off;
-  throw InputError("unknown controller '" + name + "' (expected paper, tuned or off)");
+  if (name == "oracle") return ControllerMode::oracle;
+  throw InputError("unknown controller '" + name + "' (expected paper, tuned, off or oracle)");
 }
 
 const char* to_string(ControllerMode mode) noexcept {
@@ -159,6 +162,7 @@ const char* to_string(ControllerMode mode) noexcept {
     case ControllerMode::paper: return "paper";
     case ControllerMode::tuned: return "tuned";
     case ControllerMode::off: return "off";
+    case ControllerMode::oracle: return "oracle";
   }
   return "?";
 }
@@ -182,6 +186,15 @@ ControllerConfig controller_preset(ControllerMode mode, const model::PlantParams
     config.pid.out_min = -plant.current_limit_a;
     config.pid.out_max = plant.current_limit_a;
     config.feed_forward_a_per_c = 0.0048;
+  }
+  if (mode == ControllerMode::oracle) {
+    control::ObserverLoopSpec spec;
+    spec.setpoint_c = config.setpoint_c;
+    spec.reading_noise_c = plant.network ? plant.network->casing_sensor.noise_c : 0.0;
+    spec.ambient_noise_c = plant.network ? plant.network->ambient_sensor.noise_c : 0.0;
+    config.observer = std::make_shared<const control::ObserverLoopDesign>(
+        control::design_observer_loop(model::housing_model(plant), spec));
+    config.pid.period_s = spec.period_s;
   }
   return config;
 }
@@ -308,7 +321,8 @@ SimulationResult run_simulation(const SimulationSetup& setup, const model::Chamb
   // An ambient DS18B20 only for a controller that uses it (the seed's board had
   // none): on the shared bus it costs the casing sensor a slot every 10 s.
   options.ambient_sensor =
-      setup.ambient_sensor.value_or(setup.controller.feed_forward_a_per_c > 0.0 || setup.program != nullptr);
+      setup.ambient_sensor.value_or(setup.controller.feed_forward_a_per_c > 0.0 || setup.program != nullptr ||
+                                    setup.controller.observer != nullptr);
   hal::SimBoard board(plant, setup.seed, options);
   if (profile.start_s() > 0.0) board.advance_to(profile.start_s());
 

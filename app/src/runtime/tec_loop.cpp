@@ -10,7 +10,9 @@
 namespace gyrotc::app {
 
 TecLoop::TecLoop(const ControllerConfig& config)
-    : config_(config), pid_(config.pid), flags_(kFlagTecOff), active_setpoint_c_(config.setpoint_c) {}
+    : config_(config), pid_(config.pid), flags_(kFlagTecOff), active_setpoint_c_(config.setpoint_c) {
+  if (config.observer) observer_.emplace(config.observer);
+}
 
 const TecCommand& TecLoop::off(double now_s, bool resume) noexcept {
   set_flag(flags_, kFlagTecOff, true);
@@ -18,6 +20,8 @@ const TecCommand& TecLoop::off(double now_s, bool resume) noexcept {
   if (pid_running_) {
     resume_ = resume;
     resume_integral_a_ = resume ? pid_.integral() : 0.0;
+    // The model-based loop's integral is its estimate of the unknown heat.
+    if (observer_) observer_->restart(resume);
   }
   pid_running_ = false;
   pid_.reset(0.0);
@@ -40,7 +44,7 @@ const TecCommand& TecLoop::drive(double current_a, bool saturated, double now_s)
   return command_;
 }
 
-const TecCommand& TecLoop::pid_tick(double now_s, double casing_c, double ambient_c) noexcept {
+const TecCommand& TecLoop::pid_tick(double now_s, double casing_c, double ambient_c, double casing_age_s) noexcept {
   const double dt_s = pid_running_ ? now_s - last_tick_s_ : 0.0;
   if (!pid_running_) {
     // After a sensor fault (stale) or a dead ADC the PID restarts with the
@@ -59,6 +63,12 @@ const TecCommand& TecLoop::pid_tick(double now_s, double casing_c, double ambien
     active_setpoint_c_ += std::clamp(config_.setpoint_c - active_setpoint_c_, -step, step);
   } else {
     active_setpoint_c_ = config_.setpoint_c;
+  }
+  if (observer_) {
+    const control::CurrentRange range = applied_range(casing_c, ambient_c);
+    const double current_a = observer_->tick(casing_c, casing_age_s, new_ambient_c_, active_setpoint_c_, range.min_a, range.max_a);
+    new_ambient_c_ = std::numeric_limits<double>::quiet_NaN();
+    return drive(current_a, observer_->saturated(), now_s);
   }
   const double ff = control::feed_forward_a(config_.feed_forward_a_per_c, config_.setpoint_c, ff_ambient_.value_c());
   // Anti-windup on the current applied (issue 22): control/tec_law.hpp.
@@ -102,6 +112,7 @@ control::CurrentRange TecLoop::applied_range(double casing_c, double ambient_c) 
 
 void TecLoop::on_ambient(double ambient_c, double since_s) noexcept {
   ff_ambient_.update(ambient_c, since_s, config_.feed_forward_lag_s);
+  new_ambient_c_ = ambient_c;
 }
 
 void TecLoop::on_gyro_sample(double gyro_mv) noexcept {

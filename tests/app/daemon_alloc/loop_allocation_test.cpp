@@ -4,9 +4,12 @@
 #include <atomic>
 #include <cmath>
 #include <cstdlib>
+#include <memory>
 #include <new>
 
+#include "gyrotc/algorithms/control/observer_loop.hpp"
 #include "gyrotc/algorithms/fit/compensator.hpp"
+#include "gyrotc/algorithms/model/plant_housing.hpp"
 #include "gyrotc/app/daemon/config.hpp"
 #include "gyrotc/app/runtime/realtime_runner.hpp"
 #include "gyrotc/hal/chips/ads1251.hpp"
@@ -48,11 +51,12 @@ void operator delete[](void* p, std::size_t) noexcept { std::free(p); }
 
 using namespace gyrotc;
 
-TEST_CASE("the real-time loop body allocates nothing: samples, readings, PID ticks and output rows") {
-  // The loop body (RealtimeRunner::step) driven on the lockstep simulated
-  // board: the same code the SCHED_FIFO thread runs, without the threads.
-  const app::DaemonConfig config =
-      app::load_daemon_config(gyrotc::test::config_file("gyrotc-sim.toml"));
+namespace {
+
+// The loop body (RealtimeRunner::step) driven on the lockstep simulated
+// board for 12 s: the same code the SCHED_FIFO thread runs, without the
+// threads. Checks what ran and returns the allocations after the first second.
+long loop_allocations(const app::DaemonConfig& config) {
   app::BoardInstance instance = app::make_board(config.board, app::SimTiming::lockstep);
   const hal::Board board = instance.board();
   const fit::Compensator compensator{fit::BiasModel::paper_reference()};
@@ -84,8 +88,24 @@ TEST_CASE("the real-time loop body allocates nothing: samples, readings, PID tic
   CHECK(c.pid_ticks >= 5);
   CHECK(c.readings == 12);
   CHECK(rows >= 100);
-  CHECK(controller.last_command().enable);  // the PID was driving: its path ran
-  CHECK(during_loop == 0);
+  CHECK(controller.last_command().enable);  // the TEC loop was driving: its path ran
+  return during_loop;
+}
+
+}  // namespace
+
+TEST_CASE("the real-time loop body allocates nothing: samples, readings, PID ticks and output rows") {
+  CHECK(loop_allocations(app::load_daemon_config(gyrotc::test::config_file("gyrotc-sim.toml"))) == 0);
+}
+
+TEST_CASE("the real-time loop body allocates nothing with the model-based loop in the PID's place") {
+  app::DaemonConfig config = app::load_daemon_config(gyrotc::test::config_file("gyrotc-sim.toml"));
+  control::ObserverLoopSpec spec;
+  spec.setpoint_c = config.controller.setpoint_c;
+  config.controller.observer = std::make_shared<const control::ObserverLoopDesign>(
+      control::design_observer_loop(model::housing_model(model::PlantParams{}), spec));
+  config.controller.pid.period_s = spec.period_s;
+  CHECK(loop_allocations(config) == 0);
 }
 
 TEST_CASE("the allocation counter sees an allocation (the test can fail)") {

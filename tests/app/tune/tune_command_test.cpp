@@ -220,5 +220,5 @@ TEST_CASE("simulate --controller refuses what is neither a preset nor a controll
   const std::string why = input_error_of([&] {
     run_command(app::add_simulate_command, "simulate", {"--profile", flat_profile(), "--controller", "fast"});
   });
-  CHECK(why.find("--controller 'fast': neither paper, tuned, off nor a controller file") != std::string::npos);
+  CHECK(why.find("--controller 'fast': neither paper, tuned, off, oracle nor a controller file") != std::string::npos);
 }

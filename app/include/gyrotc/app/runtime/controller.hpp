@@ -3,8 +3,10 @@
 #include <atomic>
 #include <cstdint>
 #include <limits>
+#include <memory>
 
 #include "gyrotc/algorithms/calibrate/die_temperature.hpp"
+#include "gyrotc/algorithms/control/observer_loop.hpp"
 #include "gyrotc/algorithms/control/pid.hpp"
 #include "gyrotc/algorithms/control/tec_law.hpp"
 #include "gyrotc/algorithms/control/tec_program.hpp"
@@ -46,6 +48,10 @@ struct ControllerConfig {
   // The stage's rail limit, when known; the PID's anti-windup and the current
   // applied respect it as they do out_min/out_max.
   RailLimit rail;
+  // The model-based loop (control/observer_loop.hpp) in the PID's place,
+  // at pid.period_s = its design's period; the PID's limits still bound the
+  // current. Not changed by a reload.
+  std::shared_ptr<const control::ObserverLoopDesign> observer;
   // Rate output (AD5060 #1): mid-scale = 0 deg/s.
   double rate_dac_vref_v = 5.0;
   double rate_out_v_per_dps = 0.01;  // +/-250 deg/s over 0..5 V

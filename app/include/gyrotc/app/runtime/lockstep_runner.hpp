@@ -127,7 +127,7 @@ class LockstepRunner {
 
 // --- whole runs: presets, summary ------------------------------------------
 
-enum class ControllerMode { paper, tuned, off };
+enum class ControllerMode { paper, tuned, off, oracle };
 ControllerMode parse_controller_mode(const std::string& name);  // InputError when unknown
 const char* to_string(ControllerMode mode) noexcept;
 
@@ -136,7 +136,10 @@ const char* to_string(ControllerMode mode) noexcept;
 //  - paper: the seed's integral-separated PID (Eq. 17/18: Kp 0.48, KI 0.32,
 //    KD 10, T 2 s, xi 0.5 C), setpoint 55 C;
 //  - tuned: ours, see docs/GUIDE.md "Simulation";
-//  - off: compensation only, the TEC stays off.
+//  - off: compensation only, the TEC stays off;
+//  - oracle: the model-based loop designed on the plant's own housing (the
+//    truth: model::housing_model), at a 1 s period: what a loop that knows
+//    the plant holds, the reference others are judged against (issue 72).
 ControllerConfig controller_preset(ControllerMode mode, const model::PlantParams& plant);
 
 struct SegmentSummary {

@@ -3,14 +3,18 @@
 #include <atomic>
 #include <cstddef>
 #include <cstdint>
+#include <limits>
+#include <optional>
 
+#include "gyrotc/algorithms/control/observer_loop.hpp"
 #include "gyrotc/algorithms/control/pid.hpp"
 #include "gyrotc/algorithms/control/tec_law.hpp"
 #include "gyrotc/algorithms/control/tec_program.hpp"
 
 // The Controller's TEC loop: the period's current from the casing reading,
-// the PID (seed Eq. 17/18) with the tuned options, or a TEC programme in its
-// place; off, held, or restarted as the Controller decides from its fault
+// the PID (seed Eq. 17/18) with the tuned options, the model-based loop
+// (control/observer_loop.hpp) when the configuration has one, or a TEC
+// programme in their place; off, held, or restarted as the Controller decides from its fault
 // supervisor. Owns the flags tec_off and tec_saturated.
 namespace gyrotc::app {
 
@@ -32,8 +36,10 @@ class TecLoop {
   const TecCommand& off(double now_s, bool resume) noexcept;
   // The last current again (a period without news, not yet stale).
   const TecCommand& hold(double now_s) noexcept;
-  // The PID's period, started or restarted as off() left it.
-  const TecCommand& pid_tick(double now_s, double casing_c, double ambient_c) noexcept;
+  // The PID's (or the model-based loop's) period, started or restarted as
+  // off() left it.
+  // casing_age_s: how long ago the casing reading was measured.
+  const TecCommand& pid_tick(double now_s, double casing_c, double ambient_c, double casing_age_s = 0.0) noexcept;
   // The programme's period; off when it says it has finished.
   const TecCommand& program_tick(double now_s, double casing_c, double ambient_c, double gyro_scale_mv_per_dps) noexcept;
 
@@ -63,11 +69,13 @@ class TecLoop {
 
   const ControllerConfig& config_;
   control::IncrementalPid pid_;
+  std::optional<control::ObserverLoop> observer_;
   std::uint32_t flags_;
   bool pid_running_ = false;
   bool resume_ = false;              // the next start continues the PID where a fault stopped it
   double resume_integral_a_ = 0.0;   // the PID integral to restart with
   control::AmbientLag ff_ambient_;   // what the feed-forward answers
+  double new_ambient_c_ = std::numeric_limits<double>::quiet_NaN();  // an ambient reading since the last period
   control::TecProgram* program_ = nullptr;
   bool program_started_ = false;
   double program_start_s_ = 0.0;

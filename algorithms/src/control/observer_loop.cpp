@@ -1,0 +1,301 @@
+#include "gyrotc/algorithms/control/observer_loop.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+
+#include "gyrotc/algorithms/control/riccati.hpp"
+
+namespace gyrotc::control {
+namespace {
+
+// The current in [min_a, max_a] whose steady state holds setpoint_c (Newton
+// on the steady state's held temperature, from `start_a`); the steady state
+// of the current returned in xss.
+double steady_current(HousingStepper& stepper, Eigen::VectorXd& xss, Eigen::VectorXd& probe, double setpoint_c,
+                      double ambient_c, double heat_w, double start_a, double min_a, double max_a) noexcept {
+  constexpr double kDeltaA = 1e-3;
+  double current_a = std::clamp(start_a, min_a, max_a);
+  for (int k = 0; k < 8; ++k) {
+    stepper.steady_state(xss, HousingInput{current_a, ambient_c, heat_w});
+    const double error_c = stepper.controlled_c(xss) - setpoint_c;
+    stepper.steady_state(probe, HousingInput{current_a + kDeltaA, ambient_c, heat_w});
+    const double slope = (stepper.controlled_c(probe) - stepper.controlled_c(xss)) / kDeltaA;
+    if (!(std::fabs(slope) > 0.0) || !std::isfinite(slope)) break;
+    const double next_a = std::clamp(current_a - error_c / slope, min_a, max_a);
+    const bool done = std::fabs(next_a - current_a) < 1e-7;
+    current_a = next_a;
+    if (done) break;
+  }
+  stepper.steady_state(xss, HousingInput{current_a, ambient_c, heat_w});
+  return current_a;
+}
+
+// Differences for the linearisation: the network is affine in the state with
+// the current held, so any step is exact there; the current and the TEC's
+// rail clipping are not.
+constexpr double kStateDeltaC = 0.01;
+constexpr double kHeatDeltaW = 0.01;
+constexpr double kAmbientDeltaC = 0.01;
+
+// The period's transition of (state, heat, ambient) at z with current_a,
+// linearised: f (size n + 2), and the state after the period in `base`.
+void linearise(HousingStepper& stepper, const Eigen::VectorXd& z, double current_a, double period_s,
+               Eigen::MatrixXd& f, Eigen::VectorXd& base, Eigen::VectorXd& x) noexcept {
+  const int n = stepper.model().state_count();
+  const double heat_w = z(n);
+  const double ambient_c = z(n + 1);
+  const HousingInput in{current_a, ambient_c, heat_w};
+  base = z.head(n);
+  stepper.advance(base, period_s, in);
+  f.setZero();
+  for (int j = 0; j < n; ++j) {
+    x = z.head(n);
+    x(j) += kStateDeltaC;
+    stepper.advance(x, period_s, in);
+    f.col(j).head(n) = (x - base) / kStateDeltaC;
+  }
+  x = z.head(n);
+  stepper.advance(x, period_s, HousingInput{current_a, ambient_c, heat_w + kHeatDeltaW});
+  f.col(n).head(n) = (x - base) / kHeatDeltaW;
+  x = z.head(n);
+  stepper.advance(x, period_s, HousingInput{current_a, ambient_c + kAmbientDeltaC, heat_w});
+  f.col(n + 1).head(n) = (x - base) / kAmbientDeltaC;
+  f(n, n) = 1.0;
+  f(n + 1, n + 1) = 1.0;
+}
+
+// Which entry of (state, heat, ambient) each sensor reads.
+int casing_seen_index(const HousingModel& m) {
+  return m.has_lag() ? m.casing_lag_index() : m.network.casing_sensor.node;
+}
+int ambient_seen_index(const HousingModel& m) {
+  if (m.has_ambient_lag()) return m.ambient_lag_index();
+  const int node = m.network.ambient_sensor.node;
+  return node == model::kAmbientNode ? m.state_count() + 1 : node;
+}
+
+Eigen::MatrixXd process_noise(const ObserverLoopSpec& spec, int n) {
+  Eigen::MatrixXd w = Eigen::MatrixXd::Zero(n + 2, n + 2);
+  for (int i = 0; i < n; ++i) w(i, i) = spec.node_c_per_sqrt_s * spec.node_c_per_sqrt_s * spec.period_s;
+  w(n, n) = spec.disturbance_w_per_sqrt_s * spec.disturbance_w_per_sqrt_s * spec.period_s;
+  w(n + 1, n + 1) = spec.ambient_c_per_sqrt_s * spec.ambient_c_per_sqrt_s * spec.period_s;
+  return w;
+}
+
+// Rounding leaves a covariance slightly asymmetric; in place, without a temporary.
+void symmetrise(Eigen::MatrixXd& p) noexcept {
+  for (Eigen::Index i = 0; i < p.rows(); ++i) {
+    for (Eigen::Index j = i + 1; j < p.cols(); ++j) p(i, j) = p(j, i) = 0.5 * (p(i, j) + p(j, i));
+  }
+}
+
+// A reading's noise for the quantised update, at least floor_steps of a step:
+// readings that stay on one step are not independent draws, and matching the
+// same interval's moments period after period would shrink the covariance
+// without bound (a filter sure of a temperature its readings cannot resolve).
+double quantised_noise_var(double noise_c, double step_c, double floor_steps) {
+  return std::max(noise_c * noise_c, floor_steps * floor_steps * step_c * step_c) + 1e-12;
+}
+
+double reading_variance(double noise_c, double step_c) { return noise_c * noise_c + step_c * step_c / 12.0 + 1e-12; }
+
+}  // namespace
+
+ObserverLoopDesign design_observer_loop(const HousingModel& model, const ObserverLoopSpec& spec) {
+  if (!(spec.period_s > 0.0) || !(spec.reading_step_c >= 0.0) || !(spec.reading_noise_c >= 0.0) ||
+      !(spec.ambient_noise_c >= 0.0) || !(spec.noise_floor_steps >= 0.0) || !(spec.disturbance_w_per_sqrt_s > 0.0) || !(spec.ambient_c_per_sqrt_s > 0.0) ||
+      !(spec.node_c_per_sqrt_s > 0.0) || !(spec.error_scale_c > 0.0) || !(spec.current_scale_a > 0.0)) {
+    throw std::invalid_argument("observer loop: the period, noises and weights must be positive");
+  }
+  HousingStepper stepper(model, spec.max_step_s);
+  ObserverLoopDesign d;
+  d.model = model;
+  d.spec = spec;
+  const int n = model.state_count();
+  Eigen::VectorXd x0(n);
+  Eigen::VectorXd probe(n);
+  constexpr double kSearchA = 50.0;  // the holding current is searched without the stage's limits
+  d.operating_current_a = steady_current(stepper, x0, probe, spec.setpoint_c, spec.design_ambient_c, 0.0, 0.0,
+                                         -kSearchA, kSearchA);
+  if (std::fabs(stepper.controlled_c(x0) - spec.setpoint_c) > 1e-3) {
+    throw std::invalid_argument("observer loop: no TEC current holds the setpoint at the design ambient");
+  }
+
+  Eigen::VectorXd z0(n + 2);
+  z0 << x0, 0.0, spec.design_ambient_c;
+  Eigen::MatrixXd f(n + 2, n + 2);
+  Eigen::VectorXd base(n);
+  Eigen::VectorXd scratch(n);
+  linearise(stepper, z0, d.operating_current_a, spec.period_s, f, base, scratch);
+  const Eigen::MatrixXd phi = f.topLeftCorner(n, n);
+  constexpr double kDeltaA = 1e-3;
+  Eigen::VectorXd up = x0;
+  Eigen::VectorXd down = x0;
+  stepper.advance(up, spec.period_s, HousingInput{d.operating_current_a + kDeltaA, spec.design_ambient_c, 0.0});
+  stepper.advance(down, spec.period_s, HousingInput{d.operating_current_a - kDeltaA, spec.design_ambient_c, 0.0});
+  const Eigen::VectorXd gamma_u = (up - down) / (2.0 * kDeltaA);
+
+  // The stationary filter with both readings every period: its stability
+  // is the design's detectability check.
+  Eigen::MatrixXd h = Eigen::MatrixXd::Zero(2, n + 2);
+  h(0, casing_seen_index(model)) = 1.0;
+  h(1, ambient_seen_index(model)) = 1.0;
+  Eigen::MatrixXd v = Eigen::MatrixXd::Zero(2, 2);
+  v(0, 0) = reading_variance(spec.reading_noise_c, spec.reading_step_c);
+  v(1, 1) = reading_variance(spec.ambient_noise_c, spec.reading_step_c);
+  const Eigen::MatrixXd prior = solve_dare(f.transpose(), h.transpose(), process_noise(spec, n), v);
+  const Eigen::MatrixXd gain = prior * h.transpose() * (h * prior * h.transpose() + v).inverse();
+  d.observer_radius = spectral_radius(f * (Eigen::MatrixXd::Identity(n + 2, n + 2) - gain * h));
+
+  // LQ on the held temperature's deviation and the current's.
+  Eigen::MatrixXd c = Eigen::MatrixXd::Zero(1, n);
+  c(0, model.network.casing_sensor.node) = 1.0;
+  Eigen::MatrixXd q = c.transpose() * c / (spec.error_scale_c * spec.error_scale_c);
+  q.diagonal().array() += 1e-9;
+  Eigen::MatrixXd r(1, 1);
+  r(0, 0) = 1.0 / (spec.current_scale_a * spec.current_scale_a);
+  const Eigen::MatrixXd p = solve_dare(phi, gamma_u, q, r);
+  const Eigen::MatrixXd bp = gamma_u.transpose() * p;
+  d.feedback = (r + bp * gamma_u).ldlt().solve(bp * phi);
+  d.loop_radius = spectral_radius(phi - gamma_u * d.feedback);
+  return d;
+}
+
+ObserverLoop::ObserverLoop(std::shared_ptr<const ObserverLoopDesign> design)
+    : design_(std::move(design)), stepper_(design_->model, design_->spec.max_step_s) {
+  const int n = design_->model.state_count();
+  z_ = Eigen::VectorXd::Zero(n + 2);
+  p_ = Eigen::MatrixXd::Zero(n + 2, n + 2);
+  f_ = Eigen::MatrixXd::Zero(n + 2, n + 2);
+  fp_ = Eigen::MatrixXd::Zero(n + 2, n + 2);
+  w_ = process_noise(design_->spec, n);
+  h_casing_ = Eigen::VectorXd::Zero(n + 2);
+  h_casing_(casing_seen_index(design_->model)) = 1.0;
+  h_ambient_ = Eigen::VectorXd::Zero(n + 2);
+  h_ambient_(ambient_seen_index(design_->model)) = 1.0;
+  gain_ = Eigen::VectorXd::Zero(n + 2);
+  x_ = Eigen::VectorXd::Zero(n);
+  base_ = Eigen::VectorXd::Zero(n);
+  xss_ = Eigen::VectorXd::Zero(n);
+  probe_ = Eigen::VectorXd::Zero(n);
+  posterior_ = Eigen::VectorXd::Zero(n + 2);
+  holding_a_ = design_->operating_current_a;
+}
+
+void ObserverLoop::restart(bool keep_heat) noexcept {
+  keep_heat_ = keep_heat && started_;
+  kept_heat_w_ = keep_heat_ ? posterior_(heat_index()) : 0.0;
+  started_ = false;
+}
+
+void ObserverLoop::start(double reading_c, double ambient_reading_c) noexcept {
+  const HousingModel& m = design_->model;
+  const int n = m.state_count();
+  const double casing_c = reading_c - m.network.casing_sensor.offset_c;
+  const double ambient_c =
+      std::isfinite(ambient_reading_c) ? ambient_reading_c - m.network.ambient_sensor.offset_c : casing_c;
+  z_.head(n).setConstant(casing_c);
+  if (m.network.ambient_sensor.node != model::kAmbientNode) z_(m.network.ambient_sensor.node) = ambient_c;
+  if (m.has_ambient_lag()) z_(m.ambient_lag_index()) = ambient_c;
+  z_(heat_index()) = keep_heat_ ? kept_heat_w_ : 0.0;
+  z_(ambient_index()) = ambient_c;
+  // Loose: the filter learns the nodes it cannot see from the model and the readings.
+  p_.setZero();
+  p_.diagonal().head(n).setConstant(1.0);
+  p_(heat_index(), heat_index()) = keep_heat_ ? 0.01 : 0.25;
+  p_(ambient_index(), ambient_index()) = 1.0;
+  started_ = true;
+}
+
+void ObserverLoop::update(const Eigen::VectorXd& h, double seen_c, double expected_c, double step_c,
+                          double noise_var) noexcept {
+  gain_.noalias() = p_ * h;
+  const double mean_c = expected_c;
+  const double var = h.dot(gain_) + noise_var;  // of the unrounded reading
+  double posterior_mean_c = seen_c;
+  double posterior_var = noise_var;
+  if (step_c > 0.0) {
+    // The unrounded reading ~ N(mean_c, var), observed within
+    // [seen_c - step/2, seen_c + step/2): a truncated normal's moments.
+    const double sd = std::sqrt(var);
+    const double alpha = (seen_c - 0.5 * step_c - mean_c) / sd;
+    const double beta = (seen_c + 0.5 * step_c - mean_c) / sd;
+    const double mass = 0.5 * (std::erfc(-beta / std::sqrt(2.0)) - std::erfc(-alpha / std::sqrt(2.0)));
+    constexpr double kInvSqrt2Pi = 0.3989422804014327;
+    if (mass > 1e-12) {
+      const double pdf_a = kInvSqrt2Pi * std::exp(-0.5 * alpha * alpha);
+      const double pdf_b = kInvSqrt2Pi * std::exp(-0.5 * beta * beta);
+      const double shift = (pdf_a - pdf_b) / mass;
+      posterior_mean_c = mean_c + sd * shift;
+      posterior_var = var * std::max(1e-6, 1.0 + (alpha * pdf_a - beta * pdf_b) / mass - shift * shift);
+    } else {
+      // The reading is far outside what the filter expects (a step of the
+      // ambient, a model far off): take it as a reading with the step's
+      // uniform error, as a plain Kalman filter would.
+      const double s = var + step_c * step_c / 12.0;
+      z_ += gain_ * ((seen_c - mean_c) / s);
+      p_.noalias() -= (gain_ / s) * gain_.transpose();
+      symmetrise(p_);
+      return;
+    }
+  } else {
+    posterior_var = 0.0;
+  }
+  // (z, y) jointly Gaussian, y's distribution replaced by the posterior's:
+  // E[z] moves by P h (E[y] - mean) / var, Cov[z] loses P h h' P (var - Var[y]) / var^2.
+  z_ += gain_ * ((posterior_mean_c - mean_c) / var);
+  p_.noalias() -= (gain_ * ((var - posterior_var) / (var * var))) * gain_.transpose();
+  symmetrise(p_);
+}
+
+void ObserverLoop::predict(double current_a) noexcept {
+  const int n = design_->model.state_count();
+  linearise(stepper_, z_, current_a, design_->spec.period_s, f_, base_, x_);
+  z_.head(n) = base_;
+  fp_.noalias() = f_ * p_;
+  p_.noalias() = fp_ * f_.transpose();
+  p_ += w_;
+  symmetrise(p_);
+}
+
+double ObserverLoop::tick(double reading_c, double reading_age_s, double ambient_reading_c, double setpoint_c,
+                          double min_a, double max_a) noexcept {
+  const ObserverLoopSpec& spec = design_->spec;
+  const HousingModel& m = design_->model;
+  if (!started_) {
+    start(reading_c, ambient_reading_c);
+  } else {
+    // The model's reading when the sensor measured: from the last tick's
+    // estimate over the part of the period before it (the covariance is
+    // the tick's: the correction is made now, on the state now).
+    const int n = m.state_count();
+    double expected_c = h_casing_.dot(z_);
+    if (reading_age_s > 0.0) {
+      x_ = posterior_.head(n);
+      stepper_.advance(x_, std::max(0.0, spec.period_s - reading_age_s),
+                       HousingInput{last_current_a_, posterior_(ambient_index()), posterior_(heat_index())});
+      expected_c = h_casing_.head(n).dot(x_);
+    }
+    update(h_casing_, reading_c - m.network.casing_sensor.offset_c, expected_c, spec.reading_step_c,
+           quantised_noise_var(spec.reading_noise_c, spec.reading_step_c, spec.noise_floor_steps));
+    if (std::isfinite(ambient_reading_c)) {
+      update(h_ambient_, ambient_reading_c - m.network.ambient_sensor.offset_c, h_ambient_.dot(z_),
+             spec.reading_step_c, quantised_noise_var(spec.ambient_noise_c, spec.reading_step_c, spec.noise_floor_steps));
+    }
+  }
+  posterior_ = z_;
+  const int n = m.state_count();
+  holding_a_ = steady_current(stepper_, xss_, probe_, setpoint_c, z_(ambient_index()), z_(heat_index()), holding_a_,
+                              min_a, max_a);
+  const double wanted_a = holding_a_ - design_->feedback.dot(z_.head(n) - xss_);
+  const double current_a = std::clamp(wanted_a, min_a, max_a);
+  saturated_ = current_a != wanted_a;
+  last_current_a_ = current_a;
+  predict(current_a);
+  return current_a;
+}
+
+double ObserverLoop::controlled_estimate_c() const noexcept { return stepper_.controlled_c(posterior_); }
+
+}  // namespace gyrotc::control

@@ -1,0 +1,103 @@
+#include <cmath>
+#include <stdexcept>
+
+#include "gyrotc/algorithms/control/housing_model.hpp"
+#include "gyrotc/algorithms/control/observer_loop.hpp"
+#include "gyrotc/algorithms/control/riccati.hpp"
+#include "gyrotc_catch.hpp"
+
+using namespace gyrotc::control;
+using gyrotc::model::kAmbientNode;
+
+namespace {
+
+// ambient --1 W/K-- sink ==TEC== casing (0.5 W of electronics), the sensor on
+// the casing with no lag.
+HousingModel two_nodes() {
+  HousingModel m;
+  m.network.nodes = {{"sink", 50.0, 0.0}, {"casing", 200.0, 0.5}};
+  m.network.links = {{kAmbientNode, 0, 1.0}};
+  m.network.tec_from = 0;
+  m.network.tec_to = 1;
+  m.network.casing_sensor = {1, 0.0, 0.0, 0.0};
+  m.network.gyro_node = 1;
+  m.seebeck_v_per_k = 0.05;
+  m.resistance_ohm = 10.0;
+  m.conductance_w_per_k = 0.1;
+  return m;
+}
+
+}  // namespace
+
+TEST_CASE("the Riccati solution of a scalar integrator with unit weights is the golden ratio") {
+  const Eigen::MatrixXd one = Eigen::MatrixXd::Constant(1, 1, 1.0);
+  const Eigen::MatrixXd p = solve_dare(one, one, one, one);
+  CHECK(p(0, 0) == Approx((1.0 + std::sqrt(5.0)) / 2.0).epsilon(1e-10));
+}
+
+TEST_CASE("the Riccati equation of an unstable mode no input reaches has no solution") {
+  const Eigen::MatrixXd a = Eigen::MatrixXd::Constant(1, 1, 2.0);
+  const Eigen::MatrixXd b = Eigen::MatrixXd::Zero(1, 1);
+  const Eigen::MatrixXd one = Eigen::MatrixXd::Constant(1, 1, 1.0);
+  CHECK_THROWS_AS(solve_dare(a, b, one, one), std::invalid_argument);
+}
+
+TEST_CASE("with the TEC off the housing's steady state is the heat over the conductances in series") {
+  HousingStepper stepper(two_nodes(), 0.1);
+  Eigen::VectorXd x(2);
+  stepper.steady_state(x, HousingInput{0.0, 20.0, 0.0});
+  // 0.5 W through the TEC's K (0.1 W/K) and the sink's link (1 W/K).
+  CHECK(x(0) == Approx(20.0 + 0.5 / 1.0).margin(1e-9));
+  CHECK(x(1) == Approx(20.0 + 0.5 / 1.0 + 0.5 / 0.1).margin(1e-9));
+  CHECK(stepper.controlled_c(x) == x(1));
+}
+
+TEST_CASE("the housing advanced for long with the current held reaches its steady state") {
+  HousingStepper stepper(two_nodes(), 0.1);
+  const HousingInput in{0.3, 10.0, 0.05};
+  Eigen::VectorXd settled(2);
+  stepper.steady_state(settled, in);
+  Eigen::VectorXd x = Eigen::VectorXd::Constant(2, 10.0);
+  stepper.advance(x, 100000.0, in);  // ~40 time constants (200 J/K over K - S I)
+  CHECK(x(0) == Approx(settled(0)).margin(1e-6));
+  CHECK(x(1) == Approx(settled(1)).margin(1e-6));
+}
+
+TEST_CASE("the current the stage applies stops at its own limit and at its output swing") {
+  HousingModel m = two_nodes();
+  m.current_limit_a = 0.8;
+  m.swing_pos_v = 5.0;
+  m.swing_neg_v = -5.0;
+  HousingStepper stepper(m, 0.1);
+  Eigen::VectorXd x(2);
+  x << 20.0, 20.0;
+  CHECK(stepper.applied_current_a(x, 0.3) == 0.3);
+  CHECK(stepper.applied_current_a(x, 2.0) == 0.5);    // 5 V / 10 Ohm
+  CHECK(stepper.applied_current_a(x, -0.9) == -0.5);
+  m.swing_pos_v = 12.0;
+  HousingStepper wide(m, 0.1);
+  CHECK(wide.applied_current_a(x, 2.0) == 0.8);       // the limit first
+  x << 20.0, 60.0;                                    // the Seebeck voltage takes 2 V of the swing
+  CHECK(wide.applied_current_a(x, 2.0) == Approx(0.8));
+  CHECK(wide.applied_current_a(x, -2.0) == Approx((-5.0 - 2.0) / 10.0));
+}
+
+TEST_CASE("the observer loop's design refuses a setpoint no current can hold") {
+  HousingModel m = two_nodes();
+  m.seebeck_v_per_k = 0.0;  // no Peltier effect: the TEC only heats
+  ObserverLoopSpec spec;
+  spec.setpoint_c = 5.0;
+  spec.design_ambient_c = 16.0;
+  CHECK_THROWS_WITH(design_observer_loop(m, spec), Catch::Contains("no TEC current holds the setpoint"));
+}
+
+TEST_CASE("the observer loop's first period starts from the reading and drives towards the setpoint") {
+  auto design = std::make_shared<const ObserverLoopDesign>(design_observer_loop(two_nodes(), ObserverLoopSpec{}));
+  CHECK(design->observer_radius < 1.0);
+  CHECK(design->loop_radius < 1.0);
+  ObserverLoop loop(design);
+  const double current_a = loop.tick(20.0, 0.0, 20.0, 55.0, -1.0, 1.0);
+  CHECK(loop.controlled_estimate_c() == Approx(20.0));
+  CHECK(current_a == 1.0);  // far below the setpoint: full heating
+  CHECK(loop.saturated());
+}
