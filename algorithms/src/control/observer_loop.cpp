@@ -90,6 +90,13 @@ void symmetrise(Eigen::MatrixXd& p) noexcept {
   }
 }
 
+// The unknown heat's variance at the start, W^2: half a watt is a large
+// error in what the model knows of the housing's heat.
+constexpr double kInitialHeatVar = 0.25;
+
+// P(N(0, 1) > x), accurate far into the tail.
+double upper_tail(double x) noexcept { return 0.5 * std::erfc(x / std::sqrt(2.0)); }
+
 // A reading's noise for the quantised update, at least floor_steps of a step:
 // readings that stay on one step are not independent draws, and matching the
 // same interval's moments period after period would shrink the covariance
@@ -184,9 +191,18 @@ ObserverLoop::ObserverLoop(std::shared_ptr<const ObserverLoopDesign> design)
 }
 
 void ObserverLoop::restart(bool keep_heat) noexcept {
-  keep_heat_ = keep_heat && started_;
-  kept_heat_w_ = keep_heat_ ? posterior_(heat_index()) : 0.0;
-  started_ = false;
+  if (!started_ || keep_heat) return;
+  const int h = heat_index();
+  z_(h) = 0.0;
+  p_.row(h).setZero();
+  p_.col(h).setZero();
+  p_(h, h) = kInitialHeatVar;
+}
+
+void ObserverLoop::coast(double current_a) noexcept {
+  if (!started_) return;
+  posterior_ = z_;
+  predict(current_a);
 }
 
 void ObserverLoop::start(double reading_c, double ambient_reading_c) noexcept {
@@ -198,12 +214,12 @@ void ObserverLoop::start(double reading_c, double ambient_reading_c) noexcept {
   z_.head(n).setConstant(casing_c);
   if (m.network.ambient_sensor.node != model::kAmbientNode) z_(m.network.ambient_sensor.node) = ambient_c;
   if (m.has_ambient_lag()) z_(m.ambient_lag_index()) = ambient_c;
-  z_(heat_index()) = keep_heat_ ? kept_heat_w_ : 0.0;
+  z_(heat_index()) = 0.0;
   z_(ambient_index()) = ambient_c;
   // Loose: the filter learns the nodes it cannot see from the model and the readings.
   p_.setZero();
   p_.diagonal().head(n).setConstant(1.0);
-  p_(heat_index(), heat_index()) = keep_heat_ ? 0.01 : 0.25;
+  p_(heat_index(), heat_index()) = kInitialHeatVar;
   p_(ambient_index(), ambient_index()) = 1.0;
   started_ = true;
 }
@@ -221,7 +237,11 @@ void ObserverLoop::update(const Eigen::VectorXd& h, double seen_c, double expect
     const double sd = std::sqrt(var);
     const double alpha = (seen_c - 0.5 * step_c - mean_c) / sd;
     const double beta = (seen_c + 0.5 * step_c - mean_c) / sd;
-    const double mass = 0.5 * (std::erfc(-beta / std::sqrt(2.0)) - std::erfc(-alpha / std::sqrt(2.0)));
+    // The interval's probability from the tail it lies in: a difference of
+    // two values near 1 would lose it all when the reading is a surprise.
+    const double mass = alpha > 0.0   ? upper_tail(alpha) - upper_tail(beta)
+                        : beta < 0.0 ? upper_tail(-beta) - upper_tail(-alpha)
+                                     : 1.0 - upper_tail(-alpha) - upper_tail(beta);
     constexpr double kInvSqrt2Pi = 0.3989422804014327;
     if (mass > 1e-12) {
       const double pdf_a = kInvSqrt2Pi * std::exp(-0.5 * alpha * alpha);

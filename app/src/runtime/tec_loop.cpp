@@ -15,6 +15,9 @@ TecLoop::TecLoop(const ControllerConfig& config)
 }
 
 const TecCommand& TecLoop::off(double now_s, bool resume) noexcept {
+  // The model-based loop's filter follows the housing through the stop
+  // (0 A: the TEC is off), so that a restart does not start it anew.
+  if (observer_) observer_->coast(0.0);
   set_flag(flags_, kFlagTecOff, true);
   set_flag(flags_, kFlagTecSaturated, false);
   if (pid_running_) {
@@ -31,6 +34,7 @@ const TecCommand& TecLoop::off(double now_s, bool resume) noexcept {
 }
 
 const TecCommand& TecLoop::hold(double now_s) noexcept {
+  if (observer_) observer_->coast(command_.enable ? command_.current_a : 0.0);
   command_.flags = flags_;
   last_tick_s_ = now_s;
   return command_;

@@ -101,3 +101,26 @@ TEST_CASE("the observer loop's first period starts from the reading and drives t
   CHECK(current_a == 1.0);  // far below the setpoint: full heating
   CHECK(loop.saturated());
 }
+
+TEST_CASE("the observer loop's filter follows the housing through a stop instead of starting anew") {
+  const HousingModel m = two_nodes();
+  auto design = std::make_shared<const ObserverLoopDesign>(design_observer_loop(m, ObserverLoopSpec{}));
+  ObserverLoop loop(design);
+  HousingStepper truth(m, 0.1);
+  Eigen::VectorXd x = Eigen::VectorXd::Constant(2, 16.0);
+  auto reading = [&] { return std::nearbyint(truth.reading_c(x) * 16.0) / 16.0; };
+  for (int k = 0; k < 3000; ++k) {  // warm up and hold
+    const double current_a = loop.tick(reading(), 0.0, k % 10 == 0 ? 16.0 : std::nan(""), 55.0, -1.0, 1.0);
+    truth.advance(x, 1.0, HousingInput{current_a, 16.0, 0.0});
+  }
+  REQUIRE(x(1) == Approx(55.0).margin(0.1));
+  // A fault: the TEC off for 120 s; the sink (not read) cools towards the room.
+  loop.restart(true);
+  for (int k = 0; k < 120; ++k) {
+    loop.coast(0.0);
+    truth.advance(x, 1.0, HousingInput{0.0, 16.0, 0.0});
+  }
+  loop.tick(reading(), 0.0, 16.0, 55.0, -1.0, 1.0);
+  INFO("true sink " << x(0) << " C, estimated " << loop.node_estimate_c(0) << " C; casing " << x(1));
+  CHECK(loop.node_estimate_c(0) == Approx(x(0)).margin(0.2));
+}

@@ -84,10 +84,15 @@ class ObserverLoop {
  public:
   explicit ObserverLoop(std::shared_ptr<const ObserverLoopDesign> design);
 
-  // The next tick starts the filter from its readings (every node at the
-  // casing's, the ambient at its sensor's); with keep_heat the estimated heat
-  // is kept (a restart after a fault: what the loop learnt of the load).
+  // The loop is stopped (a fault, the TEC off): the filter goes on with
+  // what it knows. Without keep_heat the estimated heat starts again from 0
+  // (a stop that is not a fault's); with it, it is kept (what the loop learnt
+  // of the load). The first tick ever starts the filter from the readings
+  // (every node at the casing's, the ambient at its sensor's).
   void restart(bool keep_heat) noexcept;
+  // A period without a tick (the loop off or holding): the filter predicts
+  // with the current the TEC had, without a reading.
+  void coast(double current_a) noexcept;
   // One period, as the header says. reading_age_s: how long ago the casing
   // reading was measured (a DS18B20 samples at its conversion's start, and
   // the period takes the last reading delivered): the filter compares it
@@ -139,8 +144,6 @@ class ObserverLoop {
   double last_current_a_ = 0.0;  // applied since the last tick
   double holding_a_ = 0.0;
   bool started_ = false;
-  bool keep_heat_ = false;
-  double kept_heat_w_ = 0.0;
   bool saturated_ = false;
 };
 

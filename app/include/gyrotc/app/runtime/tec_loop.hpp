@@ -14,8 +14,9 @@
 // The Controller's TEC loop: the period's current from the casing reading,
 // the PID (seed Eq. 17/18) with the tuned options, the model-based loop
 // (control/observer_loop.hpp) when the configuration has one, or a TEC
-// programme in their place; off, held, or restarted as the Controller decides from its fault
-// supervisor. Owns the flags tec_off and tec_saturated.
+// programme in their place; off, held, or restarted as the Controller
+// decides from its fault supervisor. Owns the flags tec_off and
+// tec_saturated.
 namespace gyrotc::app {
 
 struct ControllerConfig;
@@ -37,8 +38,7 @@ class TecLoop {
   // The last current again (a period without news, not yet stale).
   const TecCommand& hold(double now_s) noexcept;
   // The PID's (or the model-based loop's) period, started or restarted as
-  // off() left it.
-  // casing_age_s: how long ago the casing reading was measured.
+  // off() left it; casing_age_s: how long ago the casing reading was measured.
   const TecCommand& pid_tick(double now_s, double casing_c, double ambient_c, double casing_age_s = 0.0) noexcept;
   // The programme's period; off when it says it has finished.
   const TecCommand& program_tick(double now_s, double casing_c, double ambient_c, double gyro_scale_mv_per_dps) noexcept;
