@@ -25,7 +25,7 @@ namespace {
 // a heat sink, the casing DS18B20 on a board the electronics heat (a lag of
 // 12 s, an offset, noise), the ambient DS18B20 on the sink, and a stage whose
 // own current limit (0.66 A) is below the controller's configured 1 A.
-const std::string kHousing = R"(format = "gyrotc-plant"
+const std::string kSinkHousing = R"(format = "gyrotc-plant"
 version = 2
 [stage]
 current_limit_a = 0.66
@@ -72,7 +72,7 @@ struct Figures {
   double error_c = 0.0;    // in band, from 1800 s (docs/TUNING.md's fixed window)
 };
 
-Figures run_fig26(const PlantParams& plant, ControllerConfig controller) {
+Figures reference_run(const PlantParams& plant, ControllerConfig controller) {
   static const gyrotc::fit::BiasModel calibration = gyrotc::fit::BiasModel::paper_reference();
   SimulationSetup setup;
   setup.plant = plant;
@@ -102,7 +102,7 @@ ControllerConfig configured_to_1a(ControllerConfig c) {
 
 TEST_CASE("the reference loop warms the default plant up in its physical minimum and holds it within half a step") {
   const PlantParams plant;
-  const Figures f = run_fig26(plant, controller_preset(ControllerMode::oracle, plant));
+  const Figures f = reference_run(plant, controller_preset(ControllerMode::oracle, plant));
   INFO("minimum " << f.minimum_s << " s, settle " << f.settle_s << " s, error " << f.error_c << " C");
   CHECK(f.settle_s >= f.minimum_s);
   CHECK(f.settle_s <= 1.02 * f.minimum_s);
@@ -111,8 +111,8 @@ TEST_CASE("the reference loop warms the default plant up in its physical minimum
 }
 
 TEST_CASE("the reference loop warms a network housing up in its physical minimum and holds it within 0.03 C") {
-  const PlantParams plant = parse_plant(kHousing, "housing.toml");
-  const Figures f = run_fig26(plant, configured_to_1a(controller_preset(ControllerMode::oracle, plant)));
+  const PlantParams plant = parse_plant(kSinkHousing, "housing.toml");
+  const Figures f = reference_run(plant, configured_to_1a(controller_preset(ControllerMode::oracle, plant)));
   INFO("minimum " << f.minimum_s << " s, settle " << f.settle_s << " s, error " << f.error_c << " C");
   CHECK(f.settle_s >= f.minimum_s);
   CHECK(f.settle_s <= 1.02 * f.minimum_s);
@@ -120,16 +120,16 @@ TEST_CASE("the reference loop warms a network housing up in its physical minimum
 }
 
 TEST_CASE("on a network housing the reference loop holds closer than the fixed tuned PID") {
-  const PlantParams plant = parse_plant(kHousing, "housing.toml");
-  const Figures oracle = run_fig26(plant, configured_to_1a(controller_preset(ControllerMode::oracle, plant)));
-  const Figures tuned = run_fig26(plant, configured_to_1a(controller_preset(ControllerMode::tuned, plant)));
+  const PlantParams plant = parse_plant(kSinkHousing, "housing.toml");
+  const Figures oracle = reference_run(plant, configured_to_1a(controller_preset(ControllerMode::oracle, plant)));
+  const Figures tuned = reference_run(plant, configured_to_1a(controller_preset(ControllerMode::tuned, plant)));
   INFO("oracle " << oracle.settle_s << " s, " << oracle.error_c << " C; tuned " << tuned.settle_s << " s, "
                  << tuned.error_c << " C");
   CHECK(oracle.error_c < tuned.error_c);
 }
 
 TEST_CASE("the reference loop's design is stable in its observer and its loop") {
-  for (const PlantParams& plant : {PlantParams{}, parse_plant(kHousing, "housing.toml")}) {
+  for (const PlantParams& plant : {PlantParams{}, parse_plant(kSinkHousing, "housing.toml")}) {
     const ControllerConfig c = controller_preset(ControllerMode::oracle, plant);
     REQUIRE(c.observer != nullptr);
     CHECK(c.observer->observer_radius < 1.0);
