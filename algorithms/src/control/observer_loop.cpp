@@ -5,24 +5,30 @@
 #include <stdexcept>
 
 #include "gyrotc/algorithms/control/riccati.hpp"
+#include "gyrotc/algorithms/text/printf_string.hpp"
 
 namespace gyrotc::control {
 namespace {
 
 // The current in [min_a, max_a] whose steady state holds setpoint_c (Newton
 // on the steady state's held temperature, from `start_a`); the steady state
-// of the current returned in xss.
+// of the current returned in xss. The held temperature falls with the current
+// only past the TEC's maximum cooling, where Joule heat wins (and a cooling
+// current can warm the casing through a hot shell): the holding current is
+// the root where it rises, so an iterate where it does not moves halfway to
+// max_a instead of following the slope to the wrong root.
 double steady_current(HousingStepper& stepper, Eigen::VectorXd& xss, Eigen::VectorXd& probe, double setpoint_c,
                       double ambient_c, double heat_w, double start_a, double min_a, double max_a) noexcept {
   constexpr double kDeltaA = 1e-3;
   double current_a = std::clamp(start_a, min_a, max_a);
-  for (int k = 0; k < 8; ++k) {
+  for (int k = 0; k < 12; ++k) {
     stepper.steady_state(xss, HousingInput{current_a, ambient_c, heat_w});
     const double error_c = stepper.controlled_c(xss) - setpoint_c;
     stepper.steady_state(probe, HousingInput{current_a + kDeltaA, ambient_c, heat_w});
     const double slope = (stepper.controlled_c(probe) - stepper.controlled_c(xss)) / kDeltaA;
-    if (!(std::fabs(slope) > 0.0) || !std::isfinite(slope)) break;
-    const double next_a = std::clamp(current_a - error_c / slope, min_a, max_a);
+    if (!std::isfinite(slope)) break;
+    const double next_a =
+        slope > 0.0 ? std::clamp(current_a - error_c / slope, min_a, max_a) : current_a + 0.5 * (max_a - current_a);
     const bool done = std::fabs(next_a - current_a) < 1e-7;
     current_a = next_a;
     if (done) break;
@@ -90,10 +96,6 @@ void symmetrise(Eigen::MatrixXd& p) noexcept {
   }
 }
 
-// The unknown heat's variance at the start, W^2: half a watt is a large
-// error in what the model knows of the housing's heat.
-constexpr double kInitialHeatVar = 0.25;
-
 // P(N(0, 1) > x), accurate far into the tail.
 double upper_tail(double x) noexcept { return 0.5 * std::erfc(x / std::sqrt(2.0)); }
 
@@ -112,7 +114,8 @@ double reading_variance(double noise_c, double step_c) { return noise_c * noise_
 ObserverLoopDesign design_observer_loop(const HousingModel& model, const ObserverLoopSpec& spec) {
   if (!(spec.period_s > 0.0) || !(spec.reading_step_c >= 0.0) || !(spec.reading_noise_c >= 0.0) ||
       !(spec.ambient_noise_c >= 0.0) || !(spec.noise_floor_steps >= 0.0) || !(spec.disturbance_w_per_sqrt_s > 0.0) || !(spec.ambient_c_per_sqrt_s > 0.0) ||
-      !(spec.node_c_per_sqrt_s > 0.0) || !(spec.error_scale_c > 0.0) || !(spec.current_scale_a > 0.0)) {
+      !(spec.node_c_per_sqrt_s > 0.0) || !(spec.error_scale_c > 0.0) || !(spec.current_scale_a > 0.0) ||
+      !(spec.initial_heat_w > 0.0)) {
     throw std::invalid_argument("observer loop: the period, noises and weights must be positive");
   }
   HousingStepper stepper(model, spec.max_step_s);
@@ -166,6 +169,12 @@ ObserverLoopDesign design_observer_loop(const HousingModel& model, const Observe
   const Eigen::MatrixXd bp = gamma_u.transpose() * p;
   d.feedback = (r + bp * gamma_u).ldlt().solve(bp * phi);
   d.loop_radius = spectral_radius(phi - gamma_u * d.feedback);
+  if (!(d.observer_radius < 1.0) || !(d.loop_radius < 1.0)) {
+    throw std::invalid_argument(text::printf_string(
+        "observer loop: not stable at the design point (the filter's spectral radius %.6f, the loop's %.6f; both "
+        "must be below 1)",
+        d.observer_radius, d.loop_radius));
+  }
   return d;
 }
 
@@ -196,12 +205,13 @@ void ObserverLoop::restart(bool keep_heat) noexcept {
   z_(h) = 0.0;
   p_.row(h).setZero();
   p_.col(h).setZero();
-  p_(h, h) = kInitialHeatVar;
+  p_(h, h) = initial_heat_var();
 }
 
 void ObserverLoop::coast(double current_a) noexcept {
   if (!started_) return;
   posterior_ = z_;
+  last_current_a_ = current_a;
   predict(current_a);
 }
 
@@ -219,7 +229,7 @@ void ObserverLoop::start(double reading_c, double ambient_reading_c) noexcept {
   // Loose: the filter learns the nodes it cannot see from the model and the readings.
   p_.setZero();
   p_.diagonal().head(n).setConstant(1.0);
-  p_(heat_index(), heat_index()) = kInitialHeatVar;
+  p_(heat_index(), heat_index()) = initial_heat_var();
   p_(ambient_index(), ambient_index()) = 1.0;
   started_ = true;
 }

@@ -226,6 +226,16 @@ double minimum_settle_s(const ThermalModel& m, const DesignSpec& spec) {
   return -1.0;
 }
 
+double stuck_min_drive_a(const ThermalModel& m, const DesignSpec& spec) {
+  const double limit_a = std::max(spec.max_a, -spec.min_a);
+  double max_hold = 0.0;
+  for (double ta = spec.rated_low_c; ta <= spec.rated_high_c + 1e-9; ta += 5.0) {
+    const double h = holding_current_a(m, spec.setpoint_c, ta, limit_a);
+    if (std::isfinite(h)) max_hold = std::max(max_hold, std::fabs(h));
+  }
+  return std::max(0.5, std::min(1.25 * max_hold + 0.05, limit_a));
+}
+
 ControllerDesign design_controller(const ThermalModel& m, const DesignSpec& requested) {
   ControllerDesign d;
   const double limit_a = std::max(requested.max_a, -requested.min_a);
@@ -305,12 +315,7 @@ ControllerDesign design_controller(const ThermalModel& m, const DesignSpec& requ
     // guessed lag of an hour would hold the feed-forward back all programme).
     d.feed_forward_lag_s = spec.shell_known ? m.shell_tau_s : 0.0;
   }
-  // Stuck-sensor threshold above any steady holding current of the rated range.
-  double max_hold = 0.0;
-  for (double h : d.holding_a) {
-    if (std::isfinite(h)) max_hold = std::max(max_hold, std::fabs(h));
-  }
-  d.stuck_min_drive_a = std::max(0.5, std::min(1.25 * max_hold + 0.05, limit_a));
+  d.stuck_min_drive_a = stuck_min_drive_a(m, requested);
   d.minimum_settle_s = minimum_settle_s(m, spec);
 
   // Gain candidates on the unit's own scale: 1 / (TEC gain x loop delay).

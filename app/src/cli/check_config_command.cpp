@@ -40,9 +40,16 @@ void check_config(const std::string& path) {
   const ControllerConfig& c = config.controller;
   std::printf("%s: OK, as `gyrotc run` reads it (no device opened: `gyrotc probe` checks the board)\n", path.c_str());
   std::printf("  hal:         %s\n", config.board.hal == HalKind::sim ? "sim (the simulated board)" : "linux (the board's devices)");
-  std::printf("  control:     %s, setpoint %g C, period %g s, TEC %g .. %g A%s\n", c.pid_enabled ? "PID" : "TEC off",
-              c.setpoint_c, c.pid.period_s, c.pid.out_min, c.pid.out_max,
+  const char* loop = !c.pid_enabled ? "TEC off" : c.observer ? "model-based loop (type = \"observer\")" : "PID";
+  std::printf("  control:     %s, setpoint %g C, period %g s, TEC %g .. %g A%s\n", loop, c.setpoint_c, c.pid.period_s,
+              c.pid.out_min, c.pid.out_max,
               config.controller_file.empty() ? "" : (", controller file " + config.controller_file).c_str());
+  if (c.observer) {
+    // design_observer_loop refused an unstable one: these are below 1.
+    std::printf("               %d states, stable at the design point: the filter's spectral radius %.4f, the "
+                "loop's %.4f\n",
+                c.observer->model.state_count(), c.observer->observer_radius, c.observer->loop_radius);
+  }
   std::printf("  calibration: %s\n", describe(calibration).c_str());
   const OutputConfig& o = config.output;
   std::printf("  output:      stream %s, record %s, status %s, metrics %s\n", stream_name(o.stream),

@@ -27,6 +27,7 @@ struct TuneOptions {
   std::string plot;
   std::optional<double> setpoint_c;
   double experiment_scale = 1.0;
+  std::string loop = "pid";
   bool json = false;
 };
 
@@ -55,6 +56,39 @@ plot::Figure fit_figure(const TuneInput& in, const TuneResult& r) {
   bottom.series = {current};
   f.panels = {top, middle, bottom};
   return f;
+}
+
+void print_pid(const nlohmann::json& d, const char* title) {
+  auto num = [](const nlohmann::json& v, const char* format) {
+    if (v.is_null()) return std::string("n/a");
+    char buf[64];
+    std::snprintf(buf, sizeof buf, format, v.get<double>());
+    return std::string(buf);
+  };
+  std::printf("  %s: Kp %.4g, KI %.4g, KD %.4g (T %.3g s), xi %.3g C, feed-forward %.5g A/C through a %.0f s "
+              "lag, setpoint ramp %.3g C/s\n",
+              title, d["kp"].get<double>(), d["ki"].get<double>(), d["kd"].get<double>(), d["period_s"].get<double>(),
+              d["xi_c"].get<double>(), d["feed_forward_a_per_c"].get<double>(), d["feed_forward_lag_s"].get<double>(),
+              d["setpoint_ramp_c_per_s"].get<double>());
+  if (!d["rail"].is_null()) {
+    std::printf("  rail limit: %.4g A - %.4g A/C x (casing - ambient); stuck-sensor drive threshold %.3g A\n",
+                d["rail"]["pos_a"].get<double>(), d["rail"]["a_per_c"].get<double>(), d["stuck_min_drive_a"].get<double>());
+  } else {
+    std::printf("  rail limit: not identified; stuck-sensor drive threshold %.3g A\n", d["stuck_min_drive_a"].get<double>());
+  }
+  const auto& m = d["margins"];
+  std::printf("  robustness: Ms %.2f (limit %.2f), gain margin %s, phase margin %s deg, crossover %.3g rad/s\n",
+              m["max_sensitivity"].get<double>(), m["max_sensitivity_limit"].get<double>(),
+              num(m["gain_margin"], "%.2f").c_str(), num(m["phase_margin_deg"], "%.0f").c_str(),
+              m["crossover_rad_s"].get<double>());
+  for (const auto& p : m["perturbed"]) {
+    std::printf("    %-20s Ms %.2f (limit %.2f)\n", p["perturbation"].get<std::string>().c_str(),
+                p["max_sensitivity"].get<double>(), m["max_sensitivity_perturbed_limit"].get<double>());
+  }
+  std::printf("  predicted on the model: settles in %s s from %.1f C (physical minimum %s s), |error| <= %.3f C for "
+              "ambient -20..35 C\n",
+              num(d["predicted_settle_s"], "%.0f").c_str(), d["room_c"].get<double>(),
+              num(d["minimum_settle_s"], "%.0f").c_str(), d["predicted_max_error_in_band_c"].get<double>());
 }
 
 void print_text(const nlohmann::json& j, const std::string& source, const std::string& out) {
@@ -87,31 +121,18 @@ void print_text(const nlohmann::json& j, const std::string& source, const std::s
     std::printf("    %-28s %12s +/- %-10s %s\n", p["name"].get<std::string>().c_str(), num(p["value"], "%.5g").c_str(),
                 num(p["std_error"], "%.2g").c_str(), p["unit"].get<std::string>().c_str());
   }
-  const auto& d = j["design"];
-  std::printf("  controller: Kp %.4g, KI %.4g, KD %.4g (T %.3g s), xi %.3g C, feed-forward %.5g A/C through a %.0f s "
-              "lag, setpoint ramp %.3g C/s\n",
-              d["kp"].get<double>(), d["ki"].get<double>(), d["kd"].get<double>(), d["period_s"].get<double>(),
-              d["xi_c"].get<double>(), d["feed_forward_a_per_c"].get<double>(), d["feed_forward_lag_s"].get<double>(),
-              d["setpoint_ramp_c_per_s"].get<double>());
-  if (!d["rail"].is_null()) {
-    std::printf("  rail limit: %.4g A - %.4g A/C x (casing - ambient); stuck-sensor drive threshold %.3g A\n",
-                d["rail"]["pos_a"].get<double>(), d["rail"]["a_per_c"].get<double>(), d["stuck_min_drive_a"].get<double>());
-  } else {
-    std::printf("  rail limit: not identified; stuck-sensor drive threshold %.3g A\n", d["stuck_min_drive_a"].get<double>());
+  if (!j["observer"].is_null()) {
+    const auto& o = j["observer"];
+    std::printf("  model-based loop (type = \"observer\"): %d states (casing, shell%s%s), period %.3g s; at the "
+                "design point it holds %.3f A, the filter's spectral radius %.4f, the loop's %.4f (stable below 1)\n",
+                o["states"].get<int>(), o["sensor_node"].get<bool>() ? ", the sensor's node" : "",
+                o["sensor_lag_s"].get<double>() > 0.0 ? ", the sensor's lag" : "", o["period_s"].get<double>(),
+                o["operating_current_a"].get<double>(), o["observer_spectral_radius"].get<double>(),
+                o["loop_spectral_radius"].get<double>());
+    std::printf("  readings taken as 1/16 C steps with %.4f C of noise; stuck-sensor drive threshold %.3g A\n",
+                o["reading_noise_c"].get<double>(), o["stuck_min_drive_a"].get<double>());
   }
-  const auto& m = d["margins"];
-  std::printf("  robustness: Ms %.2f (limit %.2f), gain margin %s, phase margin %s deg, crossover %.3g rad/s\n",
-              m["max_sensitivity"].get<double>(), m["max_sensitivity_limit"].get<double>(),
-              num(m["gain_margin"], "%.2f").c_str(), num(m["phase_margin_deg"], "%.0f").c_str(),
-              m["crossover_rad_s"].get<double>());
-  for (const auto& p : m["perturbed"]) {
-    std::printf("    %-20s Ms %.2f (limit %.2f)\n", p["perturbation"].get<std::string>().c_str(),
-                p["max_sensitivity"].get<double>(), m["max_sensitivity_perturbed_limit"].get<double>());
-  }
-  std::printf("  predicted on the model: settles in %s s from %.1f C (physical minimum %s s), |error| <= %.3f C for "
-              "ambient -20..35 C\n",
-              num(d["predicted_settle_s"], "%.0f").c_str(), d["room_c"].get<double>(),
-              num(d["minimum_settle_s"], "%.0f").c_str(), d["predicted_max_error_in_band_c"].get<double>());
+  if (!j["design"].is_null()) print_pid(j["design"], j["observer"].is_null() ? "controller" : "PID (for comparison)");
   for (const auto& w : j["warnings"]) std::printf("  warning: %s\n", w.get<std::string>().c_str());
   std::printf("  took %.3f s (identify %.3f s, design %.3f s)\n",
               j["identify_s"].get<double>() + j["design_s"].get<double>(), j["identify_s"].get<double>(),
@@ -125,6 +146,7 @@ void run(const TuneOptions& o) {
   TuneInput input = read_tune_record(o.data);
   if (o.setpoint_c) input.setpoint_c = *o.setpoint_c;
   input.experiment_scale = o.experiment_scale;
+  input.loop = o.loop == "observer" ? TuneLoop::observer : TuneLoop::pid;
   const TuneResult result = tune_from_record(input);
   save_controller_file(result.controller, o.out, tune_informational_toml(result, o.data));
   nlohmann::json j = tune_json(result);
@@ -151,9 +173,11 @@ void add_tune_command(CLI::App& app) {
       "`gyrotc record --experiment tune` or `gyrotc simulate --profile tune` (time_s, sensor_c, tec_a\n"
       "and ambient_c only) it identifies the thermal model (TEC Peltier and Joule terms, casing and\n"
       "shell, sensor lag and dead time, the OPA548 rail), reports it with uncertainties and fit quality,\n"
-      "designs the PID (gains, separation band, feed-forward, anti-windup rail limit) for a maximum\n"
-      "sensitivity Ms <= 1.6, and writes a controller file for `gyrotc simulate --controller FILE`,\n"
-      "`gyrotc run --controller FILE` or [control] controller_file.");
+      "designs the loop, and writes a controller file for `gyrotc simulate --controller FILE`,\n"
+      "`gyrotc run --controller FILE` or [control] controller_file. --loop pid: the PID (gains,\n"
+      "separation band, feed-forward, anti-windup rail limit) for a maximum sensitivity Ms <= 1.6;\n"
+      "--loop observer: a Kalman filter on the identified housing with LQ feedback, one reading per\n"
+      "second (docs/TUNING.md).");
   cmd->add_option("--data", options->data, "the identification record (CSV)")->required();
   cmd->add_option("--out", options->out, "the controller file to write (TOML)")->required();
   cmd->add_option("--setpoint-c", options->setpoint_c,
@@ -167,6 +191,11 @@ void add_tune_command(CLI::App& app) {
       ->check([](const std::string& p) {
         return p.size() >= 4 && p.compare(p.size() - 4, 4, ".svg") == 0 ? std::string() : "only .svg is supported";
       });
+  cmd->add_option("--loop", options->loop,
+                  "the loop to design: pid (the seed's integral-separated PID with tuned gains) or observer (a "
+                  "Kalman filter on the identified housing with LQ feedback, docs/TUNING.md)")
+      ->check(CLI::IsMember({"pid", "observer"}))
+      ->capture_default_str();
   cmd->add_flag("--json", options->json, "print the report as one JSON object");
   cmd->callback([options] { run(*options); });
 }

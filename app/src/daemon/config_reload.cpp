@@ -66,6 +66,16 @@ bool reloadable_key(std::string_view key) {
   return std::find(std::begin(kReloadable), std::end(kReloadable), key) != std::end(kReloadable);
 }
 
+bool same_model_based_loop(const ControllerConfig& a, const ControllerConfig& b) {
+  if (a.observer == nullptr || b.observer == nullptr) return a.observer == b.observer;
+  const control::ObserverLoopDesign& x = *a.observer;
+  const control::ObserverLoopDesign& y = *b.observer;
+  return x.model.state_count() == y.model.state_count() && x.feedback == y.feedback &&
+         x.operating_current_a == y.operating_current_a && x.spec.period_s == y.spec.period_s &&
+         x.spec.disturbance_w_per_sqrt_s == y.spec.disturbance_w_per_sqrt_s &&
+         x.spec.reading_noise_c == y.spec.reading_noise_c;
+}
+
 ReloadPlan plan_reload(const SessionOptions& options, const toml::table& running) {
   ReloadPlan plan;
   plan.config = load_daemon_config(options.config_path);

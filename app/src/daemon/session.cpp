@@ -324,8 +324,15 @@ std::string run_session(const SessionOptions& options) {
         controller.set_compensator(*compensators.back());
         GYROTC_LOG_NOTICE("SIGHUP: calibration reloaded from %s", text.c_str());
         config.output.status_interval_s = plan.config.output.status_interval_s;
+        const ControllerConfig& running_controller = reloads.empty() ? config.controller : *reloads.back();
         if (experiment_runs) {
           GYROTC_LOG_NOTICE("SIGHUP: an experiment drives the TEC: [control] not applied");
+        } else if (!same_model_based_loop(running_controller, plan.config.controller)) {
+          // The loop's filter is built at the start, off the real-time thread.
+          GYROTC_LOG_WARNING("SIGHUP: control.controller_file changed the model-based loop (type = \"observer\") "
+                             "in %s: it takes a restart (systemctl restart gyrotc); [control] not applied, the "
+                             "running loop stays",
+                             config.source.c_str());
         } else {
           // Kept alive: the loop thread reads it at its next PID period (Controller::request_reload).
           reloads.push_back(std::make_unique<ControllerConfig>(plan.config.controller));

@@ -2,12 +2,15 @@
 
 #include <toml++/toml.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <fstream>
+#include <memory>
 #include <sstream>
 #include <stdexcept>
 
+#include "gyrotc/algorithms/tune/identified_housing.hpp"
 #include "gyrotc/app/support/errors.hpp"
 #include "gyrotc/app/formats/toml_table.hpp"
 
@@ -28,37 +31,26 @@ std::string num(double v) {
   return s;
 }
 
-}  // namespace
+// The identified housing's keys, each with its range (thermal_model.hpp).
+struct ModelKey {
+  const char* key;
+  double tune::ThermalModel::*field;
+  double min;
+  double max;
+};
+constexpr ModelKey kModelKeys[] = {
+    {"peltier_per_a_s", &tune::ThermalModel::peltier_per_a_s, 1e-12, 1.0},
+    {"joule_k_per_a2_s", &tune::ThermalModel::joule_k_per_a2_s, 1e-12, 100.0},
+    {"loss_per_s", &tune::ThermalModel::loss_per_s, 1e-12, 1.0},
+    {"shell_ratio", &tune::ThermalModel::shell_ratio, 1e-6, 1e6},
+    {"shell_tau_s", &tune::ThermalModel::shell_tau_s, 1e-3, 1e7},
+    {"internal_k_per_s", &tune::ThermalModel::internal_k_per_s, -1.0, 1.0},
+    {"dead_time_s", &tune::ThermalModel::dead_time_s, 0.0, 3600.0},
+    {"sensor_lag_s", &tune::ThermalModel::sensor_lag_s, 0.0, 36000.0},
+    {"rail_a", &tune::ThermalModel::rail_a, 1e-6, 1e6},
+};
 
-ControllerFile parse_controller_file(std::string_view text, const std::string& name) {
-  toml::table root;
-  try {
-    root = toml::parse(text, name);
-  } catch (const toml::parse_error& e) {
-    throw InputError(name + ":" + std::to_string(e.source().begin.line) + ": " + std::string(e.description()));
-  }
-  for (const auto& [k, node] : root) {
-    const std::string key(k.str());
-    if (key != "format" && key != "version" && key != "control" && key != "rail" && key != "failsafe" &&
-        key != "identified" && key != "design") {
-      throw InputError(name + ":" + std::to_string(node.source().begin.line) + ": " + key +
-                       ": unknown key (expected format, version, [control], [rail], [failsafe], [identified], "
-                       "[design])");
-    }
-  }
-  const toml::node* format = root.get("format");
-  if (format == nullptr || format->value<std::string>() != std::string("gyrotc-controller")) {
-    throw InputError(name + ": not a controller file (format = \"gyrotc-controller\" expected; `gyrotc tune` "
-                     "writes one)");
-  }
-  const toml::node* version = root.get("version");
-  if (version != nullptr && version->value<std::int64_t>() != std::int64_t{1}) {
-    throw InputError(name + ":" + std::to_string(version->source().begin.line) + ": version: must be 1");
-  }
-  (void)toml_section(root, "identified", name);
-  (void)toml_section(root, "design", name);
-
-  ControllerFile c;
+void parse_pid(const toml::table& root, const std::string& name, ControllerFile& c) {
   const TomlTable control(toml_section(root, "control", name), "control", name,
                           {"setpoint_c", "kp", "ki", "kd", "period_s", "xi_c", "feed_forward_a_per_c",
                            "feed_forward_lag_s", "setpoint_ramp_c_per_s"});
@@ -71,7 +63,94 @@ ControllerFile parse_controller_file(std::string_view text, const std::string& n
   c.feed_forward_a_per_c = control.number("feed_forward_a_per_c", 0.0, -10.0, 10.0);
   c.feed_forward_lag_s = control.number("feed_forward_lag_s", 0.0, 0.0, 1e5);
   c.setpoint_ramp_c_per_s = control.number("setpoint_ramp_c_per_s", 0.0, 0.0, 100.0);
+}
 
+ObserverLoopFile parse_observer(const toml::table& root, const std::string& name) {
+  ObserverLoopFile o;
+  const toml::table* model_table = toml_section(root, "model", name);
+  if (model_table == nullptr) throw InputError(name + ": [model] missing (type = \"observer\" is designed on it)");
+  const TomlTable model(model_table, "model", name,
+                        {"peltier_per_a_s", "joule_k_per_a2_s", "loss_per_s", "shell_ratio", "shell_tau_s",
+                         "internal_k_per_s", "dead_time_s", "sensor_lag_s", "rail_a"});
+  for (const ModelKey& k : kModelKeys) o.model.*k.field = required(model, k.key, k.min, k.max);
+  const toml::table* observer_table = toml_section(root, "observer", name);
+  if (observer_table == nullptr) throw InputError(name + ": [observer] missing (type = \"observer\" needs its noises)");
+  const TomlTable t(observer_table, "observer", name,
+                    {"design_ambient_c", "reading_step_c", "reading_noise_c", "ambient_noise_c", "noise_floor_steps",
+                     "initial_heat_k_per_s", "heat_walk_k_per_s_per_sqrt_s", "ambient_walk_c_per_sqrt_s",
+                     "node_walk_c_per_sqrt_s", "error_scale_c", "current_scale_a"});
+  control::ObserverLoopSpec& spec = o.spec;
+  spec.design_ambient_c = required(t, "design_ambient_c", -100.0, 200.0);
+  spec.reading_step_c = t.number("reading_step_c", spec.reading_step_c, 0.0, 10.0);
+  spec.reading_noise_c = t.number("reading_noise_c", 0.0, 0.0, 10.0);
+  spec.ambient_noise_c = t.number("ambient_noise_c", 0.0, 0.0, 10.0);
+  spec.noise_floor_steps = t.number("noise_floor_steps", spec.noise_floor_steps, 0.0, 10.0);
+  spec.initial_heat_w = required(t, "initial_heat_k_per_s", 1e-15, 100.0);
+  spec.disturbance_w_per_sqrt_s = required(t, "heat_walk_k_per_s_per_sqrt_s", 1e-15, 100.0);
+  spec.ambient_c_per_sqrt_s = t.number("ambient_walk_c_per_sqrt_s", spec.ambient_c_per_sqrt_s, 1e-9, 100.0);
+  spec.node_c_per_sqrt_s = t.number("node_walk_c_per_sqrt_s", spec.node_c_per_sqrt_s, 1e-9, 100.0);
+  spec.error_scale_c = t.number("error_scale_c", spec.error_scale_c, 1e-6, 100.0);
+  spec.current_scale_a = t.number("current_scale_a", spec.current_scale_a, 1e-6, 100.0);
+  return o;
+}
+
+}  // namespace
+
+ControllerFile parse_controller_file(std::string_view text, const std::string& name) {
+  toml::table root;
+  try {
+    root = toml::parse(text, name);
+  } catch (const toml::parse_error& e) {
+    throw InputError(name + ":" + std::to_string(e.source().begin.line) + ": " + std::string(e.description()));
+  }
+  for (const auto& [k, node] : root) {
+    const std::string key(k.str());
+    if (key != "format" && key != "version" && key != "type" && key != "control" && key != "rail" &&
+        key != "failsafe" && key != "model" && key != "observer" && key != "identified" && key != "design") {
+      throw InputError(name + ":" + std::to_string(node.source().begin.line) + ": " + key +
+                       ": unknown key (expected format, version, type, [control], [rail], [failsafe], [model], "
+                       "[observer], [identified], [design])");
+    }
+  }
+  const toml::node* format = root.get("format");
+  if (format == nullptr || format->value<std::string>() != std::string("gyrotc-controller")) {
+    throw InputError(name + ": not a controller file (format = \"gyrotc-controller\" expected; `gyrotc tune` "
+                     "writes one)");
+  }
+  const toml::node* version = root.get("version");
+  const std::int64_t version_number = version != nullptr ? version->value<std::int64_t>().value_or(0) : 1;
+  if (version_number != 1 && version_number != 2) {
+    throw InputError(name + ":" + std::to_string(version->source().begin.line) +
+                     ": version: must be 1 or 2 (a newer gyrotc wrote this file?)");
+  }
+  const toml::node* type = root.get("type");
+  const std::string type_name = type != nullptr ? type->value<std::string>().value_or("?") : "pid";
+  if (type_name != "pid" && type_name != "observer") {
+    throw InputError(name + ":" + std::to_string(type->source().begin.line) +
+                     ": type: must be \"pid\" or \"observer\"");
+  }
+  if (type_name == "observer" && version_number < 2) {
+    throw InputError(name + ":" + std::to_string(type->source().begin.line) +
+                     ": type: \"observer\" needs version = 2");
+  }
+  (void)toml_section(root, "identified", name);
+  (void)toml_section(root, "design", name);
+
+  ControllerFile c;
+  if (type_name == "observer") {
+    const TomlTable control(toml_section(root, "control", name), "control", name, {"setpoint_c", "period_s"});
+    c.setpoint_c = required(control, "setpoint_c", -55.0, 125.0);
+    c.period_s = required(control, "period_s", 0.01, 3600.0);
+    c.observer = parse_observer(root, name);
+  } else {
+    for (const char* table : {"model", "observer"}) {
+      if (const toml::node* node = root.get(table)) {
+        throw InputError(name + ":" + std::to_string(node->source().begin.line) + ": [" + table +
+                         "]: only a type = \"observer\" file has one");
+      }
+    }
+    parse_pid(root, name, c);
+  }
   const toml::table* rail_table = toml_section(root, "rail", name);
   const TomlTable rail(rail_table, "rail", name, {"pos_a", "neg_a", "a_per_c"});
   if (rail_table != nullptr) {
@@ -98,16 +177,37 @@ ControllerFile load_controller_file(const std::string& path) {
 
 std::string format_controller_file(const ControllerFile& c, const std::string& informational) {
   std::string out = "# gyrotc controller (see app/include/gyrotc/app/formats/controller_file.hpp)\n";
-  out += "format = \"gyrotc-controller\"\nversion = 1\n\n[control]\n";
-  out += "setpoint_c = " + num(c.setpoint_c) + "\n";
-  out += "kp = " + num(c.kp) + "                 # seed Eq. 17/18 gain form: KI = Kp T/TI, KD = Kp TD/T\n";
-  out += "ki = " + num(c.ki) + "\n";
-  out += "kd = " + num(c.kd) + "\n";
-  out += "period_s = " + num(c.period_s) + "\n";
-  out += "xi_c = " + num(c.xi_c) + "               # integral separation band\n";
-  out += "feed_forward_a_per_c = " + num(c.feed_forward_a_per_c) + "\n";
-  out += "feed_forward_lag_s = " + num(c.feed_forward_lag_s) + "      # the ambient through the housing's lag\n";
-  out += "setpoint_ramp_c_per_s = " + num(c.setpoint_ramp_c_per_s) + "\n";
+  if (c.observer) {
+    const ObserverLoopFile& o = *c.observer;
+    out += "format = \"gyrotc-controller\"\nversion = 2\ntype = \"observer\"   # the model-based loop\n\n[control]\n";
+    out += "setpoint_c = " + num(c.setpoint_c) + "\n";
+    out += "period_s = " + num(c.period_s) + "\n";
+    out += "\n[model]                # the identified housing, per unit of the casing's heat capacity\n";
+    for (const ModelKey& k : kModelKeys) out += std::string(k.key) + " = " + num(o.model.*k.field) + "\n";
+    out += "\n[observer]             # the filter's noises (heats in K/s of the casing) and the LQ weights\n";
+    out += "design_ambient_c = " + num(o.spec.design_ambient_c) + "\n";
+    out += "reading_step_c = " + num(o.spec.reading_step_c) + "\n";
+    out += "reading_noise_c = " + num(o.spec.reading_noise_c) + "\n";
+    out += "ambient_noise_c = " + num(o.spec.ambient_noise_c) + "\n";
+    out += "noise_floor_steps = " + num(o.spec.noise_floor_steps) + "\n";
+    out += "initial_heat_k_per_s = " + num(o.spec.initial_heat_w) + "\n";
+    out += "heat_walk_k_per_s_per_sqrt_s = " + num(o.spec.disturbance_w_per_sqrt_s) + "\n";
+    out += "ambient_walk_c_per_sqrt_s = " + num(o.spec.ambient_c_per_sqrt_s) + "\n";
+    out += "node_walk_c_per_sqrt_s = " + num(o.spec.node_c_per_sqrt_s) + "\n";
+    out += "error_scale_c = " + num(o.spec.error_scale_c) + "\n";
+    out += "current_scale_a = " + num(o.spec.current_scale_a) + "\n";
+  } else {
+    out += "format = \"gyrotc-controller\"\nversion = 1\n\n[control]\n";
+    out += "setpoint_c = " + num(c.setpoint_c) + "\n";
+    out += "kp = " + num(c.kp) + "                 # seed Eq. 17/18 gain form: KI = Kp T/TI, KD = Kp TD/T\n";
+    out += "ki = " + num(c.ki) + "\n";
+    out += "kd = " + num(c.kd) + "\n";
+    out += "period_s = " + num(c.period_s) + "\n";
+    out += "xi_c = " + num(c.xi_c) + "               # integral separation band\n";
+    out += "feed_forward_a_per_c = " + num(c.feed_forward_a_per_c) + "\n";
+    out += "feed_forward_lag_s = " + num(c.feed_forward_lag_s) + "      # the ambient through the housing's lag\n";
+    out += "setpoint_ramp_c_per_s = " + num(c.setpoint_ramp_c_per_s) + "\n";
+  }
   if (c.rail.known) {
     out += "\n[rail]                 # OPA548 output swing: max = pos_a - a_per_c * (casing - ambient)\n";
     out += "pos_a = " + num(c.rail.pos_a) + "\nneg_a = " + num(c.rail.neg_a) + "\na_per_c = " + num(c.rail.a_per_c) + "\n";
@@ -136,8 +236,16 @@ ControllerConfig apply_controller_file(const ControllerFile& file, ControllerCon
   base.feed_forward_lag_s = file.feed_forward_lag_s;
   base.setpoint_ramp_c_per_s = file.setpoint_ramp_c_per_s;
   base.rail = file.rail;
+  base.observer = nullptr;
   if (file.stuck_min_drive_a) base.limits.stuck_min_drive_a = *file.stuck_min_drive_a;
   try {
+    if (file.observer) {
+      control::ObserverLoopSpec spec = file.observer->spec;
+      spec.setpoint_c = file.setpoint_c;
+      spec.period_s = file.period_s;
+      base.observer = std::make_shared<const control::ObserverLoopDesign>(control::design_observer_loop(
+          tune::identified_housing(file.observer->model, std::max(out_max, -out_min)), spec));
+    }
     validate(base);
   } catch (const std::invalid_argument& e) {
     throw InputError(source + ": " + e.what());

@@ -10,6 +10,7 @@
 #include <stdexcept>
 
 #include "gyrotc/algorithms/fit/bias_model.hpp"
+#include "gyrotc/algorithms/tune/identified_housing.hpp"
 #include "gyrotc/app/formats/csv_table.hpp"
 #include "gyrotc/app/support/errors.hpp"
 #include "gyrotc/app/support/stopwatch.hpp"
@@ -20,6 +21,10 @@ namespace {
 constexpr const char* kNeeds =
     "gyrotc tune needs time_s, sensor_c and tec_a (and ambient_c when the board has an ambient sensor), as "
     "`gyrotc record --experiment tune` and `gyrotc simulate --profile tune` write them";
+
+// The model-based loop's period: one casing reading per period, the
+// DS18B20's own rate (its conversion takes 750 ms).
+constexpr double kObserverPeriodS = 1.0;
 
 std::string fmt(const char* format, double a, double b = 0.0) {
   char buf[256];
@@ -101,23 +106,44 @@ TuneResult tune_from_record(const TuneInput& input) {
   start = std::chrono::steady_clock::now();
   try {
     r.design = tune::design_controller(r.fit.model, r.spec);
+    r.pid_designed = true;
   } catch (const std::invalid_argument& e) {
-    throw InputError(input.source + ": " + e.what());
+    if (input.loop == TuneLoop::pid) throw InputError(input.source + ": " + e.what());
+    r.warnings.push_back(std::string("the PID (for comparison; --loop pid): ") + e.what());
   }
-  r.design_s = seconds_since(start);
 
   ControllerFile& c = r.controller;
   c.setpoint_c = input.setpoint_c;
-  c.kp = r.design.gains.kp;
-  c.ki = r.design.gains.ki;
-  c.kd = r.design.gains.kd;
-  c.period_s = r.spec.period_s;
-  c.xi_c = r.design.gains.xi_c;
-  c.feed_forward_a_per_c = r.design.feed_forward_a_per_c;
-  c.feed_forward_lag_s = r.design.feed_forward_lag_s;
-  c.setpoint_ramp_c_per_s = r.design.setpoint_ramp_c_per_s;
-  c.rail = r.design.rail;
-  c.stuck_min_drive_a = r.design.stuck_min_drive_a;
+  if (input.loop == TuneLoop::observer) {
+    if (!r.fit.ambient_measured) {
+      throw InputError(input.source + ": --loop observer needs the ambient sensor's readings (no ambient_c column): "
+                       "the model-based loop takes the ambient as a measured input; --loop pid works without");
+    }
+    ObserverLoopFile o;
+    o.model = r.fit.model;
+    o.spec = tune::identified_observer_spec(r.fit, input.setpoint_c, kObserverPeriodS, r.spec.room_c);
+    try {
+      r.observer = std::make_shared<const control::ObserverLoopDesign>(control::design_observer_loop(
+          tune::identified_housing(o.model, std::max(r.spec.max_a, -r.spec.min_a)), o.spec));
+    } catch (const std::invalid_argument& e) {
+      throw InputError(input.source + ": " + e.what());
+    }
+    c.period_s = kObserverPeriodS;
+    c.observer = o;
+    c.stuck_min_drive_a = tune::stuck_min_drive_a(r.fit.model, r.spec);
+  } else {
+    c.kp = r.design.gains.kp;
+    c.ki = r.design.gains.ki;
+    c.kd = r.design.gains.kd;
+    c.period_s = r.spec.period_s;
+    c.xi_c = r.design.gains.xi_c;
+    c.feed_forward_a_per_c = r.design.feed_forward_a_per_c;
+    c.feed_forward_lag_s = r.design.feed_forward_lag_s;
+    c.setpoint_ramp_c_per_s = r.design.setpoint_ramp_c_per_s;
+    c.rail = r.design.rail;
+    c.stuck_min_drive_a = r.design.stuck_min_drive_a;
+  }
+  r.design_s = seconds_since(start);
 
   // What the user should know.
   double lowest = std::numeric_limits<double>::quiet_NaN();
@@ -133,7 +159,7 @@ TuneResult tune_from_record(const TuneInput& input) {
                              "current limits and rails",
                              lowest, highest));
   }
-  if (!r.fit.rail_reached) {
+  if (!r.fit.rail_reached && input.loop == TuneLoop::pid) {
     r.warnings.push_back("the experiment never reached the OPA548's rail limit: no [rail] in the controller file, "
                          "the anti-windup knows only the current limits");
   }
@@ -207,6 +233,18 @@ std::string tune_informational_toml(const TuneResult& r, const std::string& sour
   }
   out += "fit_rms_c = " + toml_number(r.fit.rms_c) + "\n";
   out += "samples = " + std::to_string(r.fit.samples) + "\n";
+  if (r.observer) {
+    const control::ObserverLoopDesign& d = *r.observer;
+    out += "\n[design]              # the model-based loop at the design point (informational, not read)\n";
+    out += "operating_current_a = " + toml_number(d.operating_current_a) + "\n";
+    out += "feedback_a_per_c = [";
+    for (Eigen::Index k = 0; k < d.feedback.size(); ++k) out += (k > 0 ? ", " : "") + toml_number(d.feedback(k));
+    out += "]   # per state: casing, shell, the sensor's node (a lag in the record), the sensor's own lag\n";
+    out += "observer_spectral_radius = " + toml_number(d.observer_radius) + "\n";
+    out += "loop_spectral_radius = " + toml_number(d.loop_radius) + "\n";
+    out += "room_c = " + toml_number(r.spec.room_c) + "\n";
+    return out;
+  }
   out += "\n[design]              # robustness margin and what the design predicts (informational, not read)\n";
   out += "max_sensitivity = " + toml_number(r.design.margins.max_sensitivity) + "\n";
   out += "gain_margin = " + toml_number(r.design.margins.gain_margin) + "\n";
@@ -287,33 +325,56 @@ nlohmann::json tune_json(const TuneResult& r) {
   const auto& d = r.design;
   json perturbed = json::array();
   for (const auto& p : d.perturbed) perturbed.push_back({{"perturbation", p.perturbation}, {"max_sensitivity", p.max_sensitivity}});
-  j["design"] = {{"setpoint_c", sp},
-                 {"kp", d.gains.kp},
-                 {"ki", d.gains.ki},
-                 {"kd", d.gains.kd},
-                 {"period_s", r.spec.period_s},
-                 {"xi_c", d.gains.xi_c},
-                 {"feed_forward_a_per_c", d.feed_forward_a_per_c},
-                 {"feed_forward_lag_s", d.feed_forward_lag_s},
-                 {"setpoint_ramp_c_per_s", d.setpoint_ramp_c_per_s},
-                 {"stuck_min_drive_a", d.stuck_min_drive_a},
-                 {"rail", d.rail.known ? json{{"pos_a", d.rail.pos_a}, {"neg_a", d.rail.neg_a}, {"a_per_c", d.rail.a_per_c}}
-                                       : json(nullptr)},
-                 {"room_c", room},
-                 {"current_limits_a", {r.spec.min_a, r.spec.max_a}},
-                 {"margins",
-                  {{"max_sensitivity", d.margins.max_sensitivity},
-                   {"max_sensitivity_limit", r.spec.max_sensitivity},
-                   {"gain_margin", number(d.margins.gain_margin)},
-                   {"phase_margin_deg", number(d.margins.phase_margin_deg)},
-                   {"crossover_rad_s", d.margins.crossover_rad_s},
-                   {"perturbed", perturbed},
-                   {"max_sensitivity_perturbed_limit", r.spec.max_sensitivity_perturbed}}},
-                 {"predicted_settle_s", number(d.predicted.settle_s)},
-                 {"minimum_settle_s", number(d.minimum_settle_s)},
-                 {"predicted_max_error_in_band_c", d.predicted.max_error_in_band_c},
-                 {"candidates", d.candidates},
-                 {"robust_candidates", d.robust_candidates}};
+  if (r.pid_designed) {
+    j["design"] = {{"setpoint_c", sp},
+                   {"kp", d.gains.kp},
+                   {"ki", d.gains.ki},
+                   {"kd", d.gains.kd},
+                   {"period_s", r.spec.period_s},
+                   {"xi_c", d.gains.xi_c},
+                   {"feed_forward_a_per_c", d.feed_forward_a_per_c},
+                   {"feed_forward_lag_s", d.feed_forward_lag_s},
+                   {"setpoint_ramp_c_per_s", d.setpoint_ramp_c_per_s},
+                   {"stuck_min_drive_a", d.stuck_min_drive_a},
+                   {"rail", d.rail.known ? json{{"pos_a", d.rail.pos_a}, {"neg_a", d.rail.neg_a}, {"a_per_c", d.rail.a_per_c}}
+                                         : json(nullptr)},
+                   {"room_c", room},
+                   {"current_limits_a", {r.spec.min_a, r.spec.max_a}},
+                   {"margins",
+                    {{"max_sensitivity", d.margins.max_sensitivity},
+                     {"max_sensitivity_limit", r.spec.max_sensitivity},
+                     {"gain_margin", number(d.margins.gain_margin)},
+                     {"phase_margin_deg", number(d.margins.phase_margin_deg)},
+                     {"crossover_rad_s", d.margins.crossover_rad_s},
+                     {"perturbed", perturbed},
+                     {"max_sensitivity_perturbed_limit", r.spec.max_sensitivity_perturbed}}},
+                   {"predicted_settle_s", number(d.predicted.settle_s)},
+                   {"minimum_settle_s", number(d.minimum_settle_s)},
+                   {"predicted_max_error_in_band_c", d.predicted.max_error_in_band_c},
+                   {"candidates", d.candidates},
+                   {"robust_candidates", d.robust_candidates}};
+  } else {
+    j["design"] = nullptr;
+  }
+  j["loop"] = r.observer ? "observer" : "pid";
+  if (r.observer) {
+    const control::ObserverLoopDesign& o = *r.observer;
+    std::vector<double> feedback(o.feedback.data(), o.feedback.data() + o.feedback.size());
+    j["observer"] = {{"setpoint_c", sp},
+                     {"period_s", o.spec.period_s},
+                     {"states", o.model.state_count()},
+                     {"sensor_node", o.model.network.casing_sensor.node != 0},
+                     {"sensor_lag_s", o.model.network.casing_sensor.tau_s},
+                     {"operating_current_a", o.operating_current_a},
+                     {"feedback_a_per_c", feedback},
+                     {"observer_spectral_radius", o.observer_radius},
+                     {"loop_spectral_radius", o.loop_radius},
+                     {"reading_noise_c", o.spec.reading_noise_c},
+                     {"stuck_min_drive_a", r.controller.stuck_min_drive_a.value_or(0.0)},
+                     {"current_limits_a", {r.spec.min_a, r.spec.max_a}}};
+  } else {
+    j["observer"] = nullptr;
+  }
   j["warnings"] = r.warnings;
   return j;
 }

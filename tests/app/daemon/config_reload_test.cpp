@@ -11,8 +11,10 @@
 #include <string>
 #include <vector>
 
+#include "gyrotc/app/formats/controller_file.hpp"
 #include "gyrotc/app/support/errors.hpp"
 #include "gyrotc_catch.hpp"
+#include "observer_controller_file.hpp"
 #include "test_paths.hpp"
 
 using namespace gyrotc::app;
@@ -118,4 +120,18 @@ TEST_CASE("a reload of a broken file or calibration is refused naming the file, 
   replace_in(config, "\nkp = -1", "\nkp = 0.48");
   std::ofstream(config.parent_path() / "calibration.toml") << "not = [valid\n";
   CHECK_THROWS_AS(plan_reload(options, started), InputError);
+}
+
+TEST_CASE("a reload that changes the model-based loop, or the loop's type, is one that takes a restart") {
+  ControllerFile file = gyrotc::test::observer_controller_file();
+  const ControllerConfig pid;
+  const ControllerConfig observer = apply_controller_file(file, pid, "a.toml");
+  const ControllerConfig same = apply_controller_file(file, pid, "a.toml");
+  file.setpoint_c = 50.0;
+  const ControllerConfig other = apply_controller_file(file, pid, "b.toml");
+  CHECK(same_model_based_loop(pid, pid));
+  CHECK(same_model_based_loop(observer, same));
+  CHECK_FALSE(same_model_based_loop(observer, other));
+  CHECK_FALSE(same_model_based_loop(pid, observer));
+  CHECK_FALSE(same_model_based_loop(observer, pid));
 }

@@ -8,6 +8,7 @@
 #include "gyrotc_catch.hpp"
 #include "test_paths.hpp"
 #include "input_error_of.hpp"
+#include "observer_controller_file.hpp"
 
 using namespace gyrotc::app;
 using gyrotc::test::input_error_of;
@@ -129,4 +130,88 @@ TEST_CASE("the daemon configuration refuses [control] gains next to a controller
                                      "hal = \"sim\"\n[control]\ncontroller_file = \"unit.toml\"\nkp = 2.0\n");
   CHECK(input_error_of([&] { (void)load_daemon_config(cfg); })
             .find("controller_file_conflict.toml:4: control.kp: set by control.controller_file") != std::string::npos);
+}
+
+TEST_CASE("a model-based loop's controller file round-trips its model, noises and weights") {
+  const ControllerFile c = gyrotc::test::observer_controller_file();
+  const std::string text = format_controller_file(c);
+  CHECK(text.find("version = 2") != std::string::npos);
+  CHECK(text.find("type = \"observer\"") != std::string::npos);
+  const ControllerFile back = parse_controller_file(text, "c.toml");
+  REQUIRE(back.observer.has_value());
+  CHECK(back.setpoint_c == c.setpoint_c);
+  CHECK(back.period_s == c.period_s);
+  const auto& m = back.observer->model;
+  const auto& w = c.observer->model;
+  CHECK(m.peltier_per_a_s == w.peltier_per_a_s);
+  CHECK(m.joule_k_per_a2_s == w.joule_k_per_a2_s);
+  CHECK(m.loss_per_s == w.loss_per_s);
+  CHECK(m.shell_ratio == w.shell_ratio);
+  CHECK(m.shell_tau_s == w.shell_tau_s);
+  CHECK(m.internal_k_per_s == w.internal_k_per_s);
+  CHECK(m.dead_time_s == w.dead_time_s);
+  CHECK(m.sensor_lag_s == w.sensor_lag_s);
+  CHECK(m.rail_a == w.rail_a);
+  const auto& s = back.observer->spec;
+  CHECK(s.design_ambient_c == c.observer->spec.design_ambient_c);
+  CHECK(s.reading_noise_c == c.observer->spec.reading_noise_c);
+  CHECK(s.initial_heat_w == c.observer->spec.initial_heat_w);
+  CHECK(s.disturbance_w_per_sqrt_s == c.observer->spec.disturbance_w_per_sqrt_s);
+  CHECK(s.error_scale_c == c.observer->spec.error_scale_c);
+  CHECK(s.current_scale_a == c.observer->spec.current_scale_a);
+}
+
+TEST_CASE("applying a model-based loop's file designs a stable loop at its period within the board's limits") {
+  ControllerConfig base;
+  base.pid.out_min = -0.8;
+  base.pid.out_max = 0.8;
+  const ControllerConfig c = apply_controller_file(gyrotc::test::observer_controller_file(), base, "c.toml");
+  REQUIRE(c.observer != nullptr);
+  CHECK(c.pid.period_s == 1.0);
+  CHECK(c.observer->spec.period_s == 1.0);
+  CHECK(c.observer->model.current_limit_a == 0.8);
+  CHECK(c.observer->observer_radius < 1.0);
+  CHECK(c.observer->loop_radius < 1.0);
+  CHECK(c.pid.out_max == 0.8);
+  CHECK(c.limits.stuck_min_drive_a == 0.57);
+  // A PID file applied over it takes the model-based loop away.
+  CHECK(apply_controller_file(sample(), c, "pid.toml").observer == nullptr);
+}
+
+TEST_CASE("a model-based loop's file that is incomplete or mixed with the PID's keys is refused naming it") {
+  const std::string text = format_controller_file(gyrotc::test::observer_controller_file());
+  std::string old_version = text;
+  old_version.replace(old_version.find("version = 2"), 11, "version = 1");
+  CHECK(input_error_of([&] { (void)parse_controller_file(old_version, "c.toml"); })
+            .find("c.toml:4: type: \"observer\" needs version = 2") != std::string::npos);
+  const std::string no_model = text.substr(0, text.find("[model]")) + text.substr(text.find("[observer]"));
+  CHECK(input_error_of([&] { (void)parse_controller_file(no_model, "c.toml"); }).find("c.toml: [model] missing") !=
+        std::string::npos);
+  std::string no_lag = text;
+  no_lag.erase(no_lag.find("sensor_lag_s = "), no_lag.find("\n", no_lag.find("sensor_lag_s = ")) - no_lag.find("sensor_lag_s = ") + 1);
+  CHECK(input_error_of([&] { (void)parse_controller_file(no_lag, "c.toml"); }).find("model.sensor_lag_s: missing") !=
+        std::string::npos);
+  std::string with_kp = text;
+  with_kp.replace(with_kp.find("period_s = 1.0"), 14, "period_s = 1.0\nkp = 1.0");
+  CHECK(input_error_of([&] { (void)parse_controller_file(with_kp, "c.toml"); }).find("control.kp: unknown key") !=
+        std::string::npos);
+  const std::string pid_with_model = format_controller_file(sample()) + "\n[model]\nrail_a = 1.0\n";
+  CHECK(input_error_of([&] { (void)parse_controller_file(pid_with_model, "c.toml"); })
+            .find("[model]: only a type = \"observer\" file has one") != std::string::npos);
+  std::string bad_type = text;
+  bad_type.replace(bad_type.find("type = \"observer\""), 17, "type = \"mpc\"");
+  CHECK(input_error_of([&] { (void)parse_controller_file(bad_type, "c.toml"); })
+            .find("type: must be \"pid\" or \"observer\"") != std::string::npos);
+  std::string newer = text;
+  newer.replace(newer.find("version = 2"), 11, "version = 3");
+  CHECK(input_error_of([&] { (void)parse_controller_file(newer, "c.toml"); }).find("version: must be 1 or 2") !=
+        std::string::npos);
+}
+
+TEST_CASE("a model-based loop that cannot hold its setpoint is refused when applied, naming the file") {
+  ControllerFile c = gyrotc::test::observer_controller_file();
+  c.observer->model.peltier_per_a_s = 1e-9;  // a TEC that moves no heat
+  c.observer->model.joule_k_per_a2_s = 1e-9;
+  CHECK(input_error_of([&] { (void)apply_controller_file(c, ControllerConfig{}, "hot.toml"); })
+            .find("hot.toml: observer loop: no TEC current holds the setpoint") != std::string::npos);
 }

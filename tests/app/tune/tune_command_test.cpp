@@ -196,6 +196,29 @@ TEST_CASE("a record from a board without the ambient sensor gives a controller w
   CHECK(app::load_controller_file(kDir + "/no_ambient.toml").feed_forward_a_per_c == 0.0);
 }
 
+TEST_CASE("the model-based loop from a record without the ambient sensor is refused, naming the file and the way out") {
+  const std::string path = rewrite_column("no_ambient_observer.csv", "ambient_c",
+                                          [](std::size_t, const std::string&) { return std::string("nan"); });
+  const std::string why = input_error_of([&] {
+    run_command(app::add_tune_command, "tune", {"--data", path, "--loop", "observer", "--out", kDir + "/x.toml"});
+  });
+  CHECK(why.find("no_ambient_observer.csv: --loop observer needs the ambient sensor") != std::string::npos);
+  CHECK(why.find("--loop pid works without") != std::string::npos);
+}
+
+TEST_CASE("tune --loop observer writes a model-based loop's file and reports the loop it designed") {
+  const std::string out = kDir + "/observer.toml";
+  const std::string printed =
+      run_command(app::add_tune_command, "tune", {"--data", record_csv(), "--loop", "observer", "--out", out});
+  CHECK(printed.find("model-based loop (type = \"observer\")") != std::string::npos);
+  CHECK(printed.find("stable below 1") != std::string::npos);
+  const app::ControllerFile c = app::load_controller_file(out);
+  REQUIRE(c.observer.has_value());
+  CHECK(c.period_s == 1.0);
+  CHECK(c.observer->spec.reading_step_c == 0.0625);
+  CHECK(c.stuck_min_drive_a.has_value());
+}
+
 TEST_CASE("a record whose current never moves is refused as without excitation, naming the file") {
   const std::string path = rewrite_column("constant.csv", "tec_a", [](std::size_t, const std::string&) { return std::string("0.25"); });
   const std::string why = input_error_of([&] { run_command(app::add_tune_command, "tune", {"--data", path, "--out", kDir + "/x.toml"}); });

@@ -54,6 +54,9 @@ struct ObserverLoopSpec {
   double disturbance_w_per_sqrt_s = 1e-4;
   double ambient_c_per_sqrt_s = 0.05;
   double node_c_per_sqrt_s = 2e-4;
+  // The unknown heat's standard deviation at the start: half a watt is a
+  // large error in what the model knows of a housing's heat.
+  double initial_heat_w = 0.5;
   // The LQ weights: an error of error_scale_c in the held temperature costs
   // as much as current_scale_a of current away from the holding current.
   // Softer (a larger ratio) overshoots less after the warm-up at the
@@ -113,6 +116,7 @@ class ObserverLoop {
  private:
   int heat_index() const noexcept { return design_->model.state_count(); }
   int ambient_index() const noexcept { return design_->model.state_count() + 1; }
+  double initial_heat_var() const noexcept { return design_->spec.initial_heat_w * design_->spec.initial_heat_w; }
   void start(double reading_c, double ambient_reading_c) noexcept;
   // A quantised scalar reading: h' z + noise (variance noise_var) rounded to
   // a multiple of step_c gave seen_c (the offset taken off). The update

@@ -103,6 +103,11 @@ struct ControllerDesign {
 // room temperature within the current limits (nothing to design for).
 ControllerDesign design_controller(const ThermalModel& model, const DesignSpec& spec);
 
+// The stuck-sensor check's drive threshold (ControllerDesign::stuck_min_drive_a),
+// whatever loop holds the unit: above any steady holding current over the
+// rated ambients, at least 0.5 A, at most the current limit.
+double stuck_min_drive_a(const ThermalModel& model, const DesignSpec& spec);
+
 LoopMargins loop_margins(const ThermalModel& model, const DesignSpec& spec, const PidGains& gains, double ambient_c);
 
 // The design programme (warm-up at room_c, then the chamber's excursions) on

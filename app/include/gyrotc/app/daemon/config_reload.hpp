@@ -25,6 +25,13 @@ std::vector<std::string> changed_keys(const toml::table& before, const toml::tab
 // period, the sensor period and the rate output) takes a restart.
 bool reloadable_key(std::string_view key);
 
+// Whether two controllers run the same model-based loop, or neither runs
+// one. A reload applies the PID's settings on the real-time thread at its
+// next period; the model-based loop's filter is built when the daemon starts,
+// so a reload that changes it (or the loop's type) leaves [control] as it
+// runs and says that it takes a restart.
+bool same_model_based_loop(const ControllerConfig& a, const ControllerConfig& b);
+
 struct ReloadPlan {
   DaemonConfig config;                    // the file as read now, the command line's overrides applied
   CalibrationInUse calibration;           // its calibration, loaded

@@ -50,7 +50,8 @@ struct ControllerConfig {
   RailLimit rail;
   // The model-based loop (control/observer_loop.hpp) in the PID's place,
   // at pid.period_s = its design's period; the PID's limits still bound the
-  // current. Not changed by a reload.
+  // current. Not changed by a reload (a reload that would change it is not
+  // applied: daemon/config_reload's same_model_based_loop).
   std::shared_ptr<const control::ObserverLoopDesign> observer;
   // Rate output (AD5060 #1): mid-scale = 0 deg/s.
   double rate_dac_vref_v = 5.0;

@@ -1,5 +1,6 @@
 #pragma once
 
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -18,11 +19,17 @@
 // suite (tools/tune_suite) and the benchmark call the same functions.
 namespace gyrotc::app {
 
+// The loop tune designs: the model-based loop (control/observer_loop.hpp on
+// the identified housing, tune/identified_housing.hpp) or the seed's PID
+// structure with tuned gains (tune/controller_design.hpp).
+enum class TuneLoop { observer, pid };
+
 struct TuneInput {
   tune::TuneRecord record;
   double setpoint_c = 55.0;  // the record's setpoint_c column when it has one
   std::string source;        // the file, for messages
   double experiment_scale = 1.0;  // the record's experiment was ExperimentPlan::scaled by this
+  TuneLoop loop = TuneLoop::pid;
 };
 
 // Reads time_s, sensor_c, tec_a and, when present, ambient_c ("nan" before
@@ -36,6 +43,8 @@ struct TuneResult {
   tune::ThermalFit fit;
   tune::DesignSpec spec;
   tune::ControllerDesign design;
+  bool pid_designed = false;  // design holds the PID's (TuneLoop::observer: it may have failed)
+  std::shared_ptr<const control::ObserverLoopDesign> observer;  // TuneLoop::observer
   ControllerFile controller;
   std::vector<std::string> warnings;
   double identify_s = 0.0;
@@ -43,7 +52,9 @@ struct TuneResult {
 };
 
 // InputError naming the source when the record cannot be tuned from (what is
-// missing: excitation, response, a continuous record, ...).
+// missing: excitation, response, a continuous record, ...), or the loop
+// asked for cannot be designed. With TuneLoop::observer the PID is designed
+// as well, for comparison, and a PID design that fails is a warning.
 TuneResult tune_from_record(const TuneInput& input);
 
 // The room of `gyrotc simulate --profile tune`: room_c, constant, for as long

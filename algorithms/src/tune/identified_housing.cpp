@@ -1,0 +1,78 @@
+#include "gyrotc/algorithms/tune/identified_housing.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+namespace gyrotc::tune {
+
+namespace {
+
+// The dead time beyond a reading's own age in the record (a DS18B20 reading
+// is converted in 0.75 s and delivered once a second: 1.25 s old on average),
+// which the loop is told reading by reading: what is left is the housing's,
+// taken as part of the sensor's lag (a first-order stand-in for a delay).
+double excess_dead_time_s(const ThermalModel& m) { return std::max(0.0, m.dead_time_s - 1.25); }
+
+// A lag shorter than this is the casing's own reading.
+constexpr double kLeastLagS = 1.0;
+// The lag node's capacity per the casing's: its heat is a rounding error.
+constexpr double kLagNodeCapacity = 1e-3;
+
+}  // namespace
+
+control::HousingModel identified_housing(const ThermalModel& m, double current_limit_a) {
+  control::HousingModel h;
+  h.seebeck_v_per_k = m.peltier_per_a_s;
+  h.resistance_ohm = 2.0 * m.joule_k_per_a2_s;
+  h.conductance_w_per_k = m.casing_shell_per_s();
+  // thermal_model.hpp: I within +/- rail_a - (S/R)(Tc - Ts), i.e.
+  // S (Tc - Ts) + I R within +/- rail_a R.
+  h.swing_pos_v = m.rail_a * h.resistance_ohm;
+  h.swing_neg_v = -h.swing_pos_v;
+  h.current_limit_a = current_limit_a;
+  model::ThermalNetwork& n = h.network;
+  const double shell_capacity = 1.0 / m.capacity_ratio();
+  n.nodes = {{"casing", 1.0, m.internal_k_per_s}, {"shell", shell_capacity, 0.0}};
+  n.links = {{1, model::kAmbientNode, m.shell_ambient_per_s() * shell_capacity}};
+  n.tec_from = 1;
+  n.tec_to = 0;
+  n.gyro_node = 0;
+  n.casing_sensor = model::NetworkSensor{0, excess_dead_time_s(m), 0.0, 0.0};
+  if (m.sensor_lag_s > kLeastLagS) {
+    // The identified lag as a node of its own between the casing and the
+    // sensor (a capacity too small to draw heat from the casing), the dead
+    // time as the sensor's own lag behind it: the loop holds that node.
+    n.nodes.push_back({"sensor node", kLagNodeCapacity, 0.0});
+    n.links.push_back({0, 2, kLagNodeCapacity / m.sensor_lag_s});
+    n.casing_sensor.node = 2;
+  }
+  n.ambient_sensor = model::NetworkSensor{model::kAmbientNode, 0.0, 0.0, 0.0};
+  control::validate(h);
+  return h;
+}
+
+control::ObserverLoopSpec identified_observer_spec(const ThermalFit& fit, double setpoint_c, double period_s,
+                                                   double design_ambient_c) {
+  control::ObserverLoopSpec spec;
+  spec.period_s = period_s;
+  spec.setpoint_c = setpoint_c;
+  spec.design_ambient_c = design_ambient_c;
+  double heat_se = 0.0;
+  for (const Estimate& e : fit.estimates) {
+    if (e.name == "internal_k_per_s") heat_se = e.std_error;
+  }
+  // A heat the record pins down closely is still a heat the model may get
+  // wrong as the ambient moves: at least 1 % of what the TEC's Peltier term
+  // moves at 1 A at the setpoint.
+  heat_se = std::max(heat_se, 0.01 * fit.model.peltier_per_a_s * (setpoint_c + kKelvin));
+  // The readings' own noise: the fit's white residual less the steps'
+  // rounding (a uniform error of one step), which the filter takes as such.
+  const double rounding_var = spec.reading_step_c * spec.reading_step_c / 12.0;
+  spec.reading_noise_c = std::sqrt(std::max(0.0, fit.noise.white_var - rounding_var));
+  spec.ambient_noise_c = spec.reading_noise_c;
+  spec.initial_heat_w = 10.0 * heat_se;
+  spec.disturbance_w_per_sqrt_s = heat_se / std::sqrt(std::max(fit.duration_s, 1.0));
+  return spec;
+}
+
+}  // namespace gyrotc::tune
