@@ -111,6 +111,14 @@ double reading_variance(double noise_c, double step_c) { return noise_c * noise_
 
 }  // namespace
 
+double holding_current_a(const HousingModel& model, double setpoint_c, double ambient_c, double limit_a) {
+  HousingStepper stepper(model, 1.0);
+  Eigen::VectorXd xss(model.state_count());
+  Eigen::VectorXd probe(model.state_count());
+  const double current_a = steady_current(stepper, xss, probe, setpoint_c, ambient_c, 0.0, 0.0, -limit_a, limit_a);
+  return std::fabs(stepper.controlled_c(xss) - setpoint_c) <= 1e-3 ? current_a : std::nan("");
+}
+
 ObserverLoopDesign design_observer_loop(const HousingModel& model, const ObserverLoopSpec& spec) {
   if (!(spec.period_s > 0.0) || !(spec.reading_step_c >= 0.0) || !(spec.reading_noise_c >= 0.0) ||
       !(spec.ambient_noise_c >= 0.0) || !(spec.noise_floor_steps >= 0.0) || !(spec.disturbance_w_per_sqrt_s > 0.0) || !(spec.ambient_c_per_sqrt_s > 0.0) ||

@@ -5,6 +5,10 @@
 
 namespace gyrotc::control {
 
+double stuck_drive_threshold_a(double max_holding_a, double limit_a) noexcept {
+  return std::max(0.5, std::min(1.25 * max_holding_a + 0.05, limit_a));
+}
+
 CurrentRange applied_range(double out_min, double out_max, const RailLimit& rail, double casing_c,
                            double ambient_c) noexcept {
   CurrentRange r{out_min, out_max};

@@ -233,7 +233,7 @@ double stuck_min_drive_a(const ThermalModel& m, const DesignSpec& spec) {
     const double h = holding_current_a(m, spec.setpoint_c, ta, limit_a);
     if (std::isfinite(h)) max_hold = std::max(max_hold, std::fabs(h));
   }
-  return std::max(0.5, std::min(1.25 * max_hold + 0.05, limit_a));
+  return control::stuck_drive_threshold_a(max_hold, limit_a);
 }
 
 ControllerDesign design_controller(const ThermalModel& m, const DesignSpec& requested) {

@@ -192,9 +192,20 @@ ControllerConfig controller_preset(ControllerMode mode, const model::PlantParams
     spec.setpoint_c = config.setpoint_c;
     spec.reading_noise_c = plant.network ? plant.network->casing_sensor.noise_c : 0.0;
     spec.ambient_noise_c = plant.network ? plant.network->ambient_sensor.noise_c : 0.0;
-    config.observer = std::make_shared<const control::ObserverLoopDesign>(
-        control::design_observer_loop(model::housing_model(plant), spec));
+    const control::HousingModel housing = model::housing_model(plant);
+    config.observer =
+        std::make_shared<const control::ObserverLoopDesign>(control::design_observer_loop(housing, spec));
     config.pid.period_s = spec.period_s;
+    // The loop that knows the plant knows its holding currents too: the
+    // stuck-sensor check's threshold above them, as tune sets it from a
+    // record (fig26's -30..45 C), so that a reading held on one step is not
+    // taken for a stuck sensor.
+    double max_holding_a = 0.0;
+    for (double ambient_c = -30.0; ambient_c <= 45.0; ambient_c += 5.0) {
+      const double h = control::holding_current_a(housing, config.setpoint_c, ambient_c, plant.current_limit_a);
+      if (std::isfinite(h)) max_holding_a = std::max(max_holding_a, std::fabs(h));
+    }
+    config.limits.stuck_min_drive_a = control::stuck_drive_threshold_a(max_holding_a, plant.current_limit_a);
   }
   return config;
 }

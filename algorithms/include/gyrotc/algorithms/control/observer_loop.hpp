@@ -77,6 +77,12 @@ struct ObserverLoopDesign {
   double loop_radius = 0.0;
 };
 
+// The current within +/- limit_a whose steady state holds setpoint_c at
+// ambient_c (no unknown heat): the root on the heating side of the TEC's
+// maximum cooling, as the loop's own search finds it. NaN when the stage
+// cannot hold it there.
+double holding_current_a(const HousingModel& model, double setpoint_c, double ambient_c, double limit_a);
+
 // Throws std::invalid_argument when the model is not valid, cannot hold the
 // setpoint at the design ambient, or a Riccati equation has no solution.
 ObserverLoopDesign design_observer_loop(const HousingModel& model, const ObserverLoopSpec& spec);

@@ -31,6 +31,13 @@ struct CurrentRange {
   double max_a = 0.0;
 };
 
+// The stuck-sensor check's drive threshold (FailsafeLimits::stuck_min_drive_a)
+// for a unit whose largest steady holding current over its rated ambients is
+// max_holding_a: a quarter above it and 50 mA more, so that a held casing
+// whose reading sits on one DS18B20 step is not taken for a stuck sensor; at
+// least 0.5 A, at most the current limit.
+double stuck_drive_threshold_a(double max_holding_a, double limit_a) noexcept;
+
 // [out_min, out_max] within the rails at this casing reading and ambient
 // reading (NaN: no ambient sensor). Never empty: max_a >= min_a.
 CurrentRange applied_range(double out_min, double out_max, const RailLimit& rail, double casing_c,
