@@ -42,6 +42,15 @@ void print_for_a_person(const nlohmann::json& j) {
   }
   if (std::isfinite(c("ambient_c"))) std::printf("  ambient      %.3f C\n", c("ambient_c"));
   std::printf("  TEC          %+.3f A commanded, limit %.2f A\n", c("tec_a"), c("tec_limit_a"));
+  if (j.contains("estimate") && j["estimate"].is_object()) {
+    const nlohmann::json& e = j["estimate"];
+    std::printf("  model        holds %.3f C (estimated), ambient %.2f C, holding current %+.3f A\n", number(e, "held_c"),
+                number(e, "ambient_c"), number(e, "holding_a"));
+  }
+  // A calibration of the die compensates at the die's estimate, not at the reading.
+  if (std::isfinite(c("compensation_c")) && std::fabs(c("compensation_c") - c("casing_c")) > 5e-4) {
+    std::printf("  compensated  at %.3f C (the die's estimate)\n", c("compensation_c"));
+  }
   std::string flags;
   for (const auto& n : j.value("flag_names", nlohmann::json::array()))
     flags += (flags.empty() ? "" : ", ") + n.get<std::string>();

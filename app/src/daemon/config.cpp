@@ -86,6 +86,9 @@ DaemonConfig parse_daemon_config(const toml::table& root, const std::string& sou
   if (cc.pid.out_min >= cc.pid.out_max) control.fail_at("out_max_a", "must be above control.out_min_a");
   cc.pid_enabled = control.boolean("pid", true);
   cc.feed_forward_a_per_c = control.number("feed_forward_a_per_c", 0.0, -10.0, 10.0);
+  if (cc.feed_forward_a_per_c != 0.0 && !c.board.devices.ambient_sensor) {
+    control.fail_at("feed_forward_a_per_c", "needs the ambient reading, and [devices.ambient_sensor] is absent");
+  }
   cc.feed_forward_lag_s = control.number("feed_forward_lag_s", 0.0, 0.0, 1e5);
   cc.setpoint_ramp_c_per_s = control.number("setpoint_ramp_c_per_s", 0.0, 0.0, 100.0);
   cc.rate_out_v_per_dps = control.number("rate_out_v_per_dps", cc.rate_out_v_per_dps, 1e-9, 1000.0);
@@ -147,6 +150,19 @@ DaemonConfig parse_daemon_config(const toml::table& root, const std::string& sou
 void use_controller_file(DaemonConfig& config, const std::string& path) {
   config.controller = apply_controller_file(load_controller_file(path), config.controller, path);
   config.controller_file = path;
+  // The file's loop was identified with the ambient as an input: without the
+  // sensor the PID would lose its feed-forward and the model-based loop its
+  // reading of the housing's other side, silently.
+  if (!config.board.devices.ambient_sensor) {
+    if (config.controller.observer) {
+      throw InputError(path + ": type = \"observer\": the model-based loop reads the ambient, and " + config.source +
+                       " has no [devices.ambient_sensor]");
+    }
+    if (config.controller.feed_forward_a_per_c != 0.0) {
+      throw InputError(path + ": feed_forward_a_per_c: needs the ambient reading, and " + config.source +
+                       " has no [devices.ambient_sensor]");
+    }
+  }
   if (config.sensor_period_s > config.controller.pid.period_s) {
     throw InputError(path + ": control.period_s " + format_toml_number(config.controller.pid.period_s) +
                      " is shorter than the configuration's sensor_period_s (a fresh reading every PID period)");

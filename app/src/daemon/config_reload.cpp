@@ -68,12 +68,8 @@ bool reloadable_key(std::string_view key) {
 
 bool same_model_based_loop(const ControllerConfig& a, const ControllerConfig& b) {
   if (a.observer == nullptr || b.observer == nullptr) return a.observer == b.observer;
-  const control::ObserverLoopDesign& x = *a.observer;
-  const control::ObserverLoopDesign& y = *b.observer;
-  return x.model.state_count() == y.model.state_count() && x.feedback == y.feedback &&
-         x.operating_current_a == y.operating_current_a && x.spec.period_s == y.spec.period_s &&
-         x.spec.disturbance_w_per_sqrt_s == y.spec.disturbance_w_per_sqrt_s &&
-         x.spec.reading_noise_c == y.spec.reading_noise_c;
+  // The same model and specification design the same loop.
+  return a.observer->model == b.observer->model && a.observer->spec == b.observer->spec;
 }
 
 ReloadPlan plan_reload(const SessionOptions& options, const toml::table& running) {

@@ -15,12 +15,6 @@
 namespace gyrotc::app {
 namespace {
 
-// The flags that stop the TEC or make the rate output invalid: a "fault".
-// model_clamped (compensated at the calibration's end) is reported, not a fault.
-constexpr std::uint32_t kFaultFlags = kFlagTempStale | kFlagTempInvalid | kFlagTempStuck | kFlagOverTempLatched |
-                                      kFlagOpa548Thermal | kFlagAdcInvalid | kFlagAdcStalled | kFlagTecWriteFailed |
-                                      kFlagRateDacFailed;
-
 std::vector<std::string> names_of(std::uint32_t flags) {
   std::vector<std::string> names;
   for (unsigned bit = 0; bit < 32; ++bit) {
@@ -108,6 +102,11 @@ std::string status_json(const DaemonStatus& s) {
   j["held_error_c"] = number_or_null(s.held_error_c);
   j["tec_a"] = s.tec_a;
   j["tec_limit_a"] = s.tec_limit_a;
+  j["compensation_c"] = number_or_null(s.compensation_c);
+  j["estimate"] = std::isfinite(s.estimate.held_c) ? nlohmann::json{{"held_c", s.estimate.held_c},
+                                                                      {"ambient_c", number_or_null(s.estimate.ambient_c)},
+                                                                      {"holding_a", number_or_null(s.estimate.holding_a)}}
+                                                    : nlohmann::json(nullptr);
   j["flags"] = s.flags;
   j["flag_names"] = names_of(s.flags);
   nlohmann::json faults = nlohmann::json::array();
@@ -176,6 +175,21 @@ std::string prometheus_text(const DaemonStatus& s) {
   value("gyrotc_tec_current_amperes", s.tec_a);
   metric("gyrotc_tec_current_limit_amperes", "gauge", "The PID's TEC current limit.");
   value("gyrotc_tec_current_limit_amperes", s.tec_limit_a);
+  metric("gyrotc_compensation_temperature_celsius", "gauge",
+         "The temperature the rate is compensated at: the casing reading, or the die's estimate with a calibration "
+         "of the die.");
+  value("gyrotc_compensation_temperature_celsius", s.compensation_c);
+  if (std::isfinite(s.estimate.held_c)) {
+    metric("gyrotc_estimated_held_temperature_celsius", "gauge",
+           "The model-based loop's estimate of the temperature it holds (its sensor's node).");
+    value("gyrotc_estimated_held_temperature_celsius", s.estimate.held_c);
+    metric("gyrotc_estimated_ambient_temperature_celsius", "gauge",
+           "The model-based loop's estimate of the ambient the housing sees.");
+    value("gyrotc_estimated_ambient_temperature_celsius", s.estimate.ambient_c);
+    metric("gyrotc_holding_current_amperes", "gauge",
+           "The TEC current that holds the setpoint against the estimated heat and ambient (model-based loop).");
+    value("gyrotc_holding_current_amperes", s.estimate.holding_a);
+  }
   metric("gyrotc_flag", "gauge", "Controller flags (docs/GUIDE.md): 1 while raised.");
   for (unsigned bit = 0; bit < 32; ++bit) {
     const char* name = flag_name(1u << bit);

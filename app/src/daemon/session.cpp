@@ -18,6 +18,7 @@
 #include "gyrotc/algorithms/calibrate/sweep_experiment.hpp"
 #include "gyrotc/algorithms/tune/experiment.hpp"
 #include "gyrotc/app/formats/calibration_in_use.hpp"
+#include "gyrotc/app/runtime/fault_matrix.hpp"
 #include "gyrotc/app/runtime/kernel_rt.hpp"
 #include "gyrotc/app/daemon/row_outputs.hpp"
 #include "gyrotc/app/support/log.hpp"
@@ -47,41 +48,23 @@ double us(double s) { return s * 1e6; }
 class FaultReporter {
  public:
   void update(std::uint32_t flags, double now_s) {
-    for (const Fault& f : kFaults) {
-      const bool on = (flags & f.flag) != 0;
-      const bool was = (told_ & f.flag) != 0;
-      if (on && !was && now_s >= quiet_until_s_[index(f.flag)]) {
-        GYROTC_LOG_WARNING("fault %s: %s", flag_name(f.flag), f.what);
-        told_ |= f.flag;
-        quiet_until_s_[index(f.flag)] = now_s + 30.0;
+    for (unsigned bit = 0; bit < 32; ++bit) {
+      const std::uint32_t flag = 1u << bit;
+      if ((kJournalFlags & flag) == 0) continue;
+      const bool on = (flags & flag) != 0;
+      const bool was = (told_ & flag) != 0;
+      if (on && !was && now_s >= quiet_until_s_[bit]) {
+        GYROTC_LOG_WARNING("fault %s: %s", flag_name(flag), fault_consequence(flag));
+        told_ |= flag;
+        quiet_until_s_[bit] = now_s + 30.0;
       } else if (!on && was) {
-        GYROTC_LOG_NOTICE("fault %s cleared", flag_name(f.flag));
-        told_ &= ~f.flag;
+        GYROTC_LOG_NOTICE("fault %s cleared", flag_name(flag));
+        told_ &= ~flag;
       }
     }
   }
 
  private:
-  struct Fault {
-    std::uint32_t flag;
-    const char* what;
-  };
-  static constexpr Fault kFaults[] = {
-      {kFlagTempStale, "no valid casing reading for failsafe.stale_periods PID periods: TEC off"},
-      {kFlagTempInvalid, "invalid casing reading (empty, CRC, 85 C, range, resolution, missing): TEC current held"},
-      {kFlagTempStuck, "the casing reading does not change while the TEC drives: TEC off"},
-      {kFlagOverTempLatched, "casing above failsafe.over_temp_c: TEC off until restart"},
-      {kFlagOpa548Thermal, "OPA548 thermal shutdown (E/S low): TEC off for failsafe.opa548_cooldown_s"},
-      {kFlagAdcInvalid, "ADS1251 DRDY timeout or clipped sample: rate output invalid (DAC at mid-scale)"},
-      {kFlagAdcStalled, "no ADS1251 sample for failsafe.adc_stall_s (DRDY stopped or every read fails): TEC off "
-                        "until samples return"},
-      {kFlagModelClamped, "casing (or die) temperature outside the calibration's range: compensated at its end"},
-      {kFlagTecWriteFailed, "the TEC DAC or the OPA548's E/S line refused a write (SPI or GPIO error): TEC off, "
-                            "retried every PID period"},
-      {kFlagRateDacFailed, "the rate DAC refused a write (SPI error): the analog rate output is stale"},
-  };
-  static std::size_t index(std::uint32_t flag) { return static_cast<std::size_t>(__builtin_ctz(flag)); }
-
   std::uint32_t told_ = 0;
   double quiet_until_s_[32] = {};
 };

@@ -79,6 +79,8 @@ std::string StatusPublisher::update(const LoopStatus& loop, const LoopCounters& 
   status_.setpoint_c = loop.setpoint_c;
   status_.tec_a = loop.tec_a;
   status_.flags = loop.flags;
+  status_.compensation_c = loop.compensation_c;
+  status_.estimate = loop.estimate;
   status_.counters = counters;
   status_.latency = latency;
   // How well it holds: the stretch since the casing last came into the band, up to 60 s.

@@ -6,6 +6,7 @@
 #include <cmath>
 #include <cstdio>
 #include <fstream>
+#include <iterator>
 #include <memory>
 #include <sstream>
 #include <stdexcept>
@@ -65,32 +66,51 @@ void parse_pid(const toml::table& root, const std::string& name, ControllerFile&
   c.setpoint_ramp_c_per_s = control.number("setpoint_ramp_c_per_s", 0.0, 0.0, 100.0);
 }
 
+// The filter's and the LQ design's keys, each with its range; an optional
+// key's default is ObserverLoopSpec's (observer_loop.hpp). The heats are per
+// unit of the casing's heat capacity, hence K/s.
+struct SpecKey {
+  const char* key;
+  double control::ObserverLoopSpec::*field;
+  double min;
+  double max;
+  bool required;
+};
+constexpr SpecKey kSpecKeys[] = {
+    {"design_ambient_c", &control::ObserverLoopSpec::design_ambient_c, -100.0, 200.0, true},
+    {"reading_step_c", &control::ObserverLoopSpec::reading_step_c, 0.0, 10.0, false},
+    {"reading_noise_c", &control::ObserverLoopSpec::reading_noise_c, 0.0, 10.0, false},
+    {"ambient_noise_c", &control::ObserverLoopSpec::ambient_noise_c, 0.0, 10.0, false},
+    {"noise_floor_steps", &control::ObserverLoopSpec::noise_floor_steps, 0.0, 10.0, false},
+    {"initial_heat_k_per_s", &control::ObserverLoopSpec::initial_heat_w, 1e-15, 100.0, true},
+    {"heat_walk_k_per_s_per_sqrt_s", &control::ObserverLoopSpec::disturbance_w_per_sqrt_s, 1e-15, 100.0, true},
+    {"ambient_walk_c_per_sqrt_s", &control::ObserverLoopSpec::ambient_c_per_sqrt_s, 1e-9, 100.0, false},
+    {"node_walk_c_per_sqrt_s", &control::ObserverLoopSpec::node_c_per_sqrt_s, 1e-9, 100.0, false},
+    {"error_scale_c", &control::ObserverLoopSpec::error_scale_c, 1e-6, 100.0, false},
+    {"current_scale_a", &control::ObserverLoopSpec::current_scale_a, 1e-6, 100.0, false},
+};
+
+// Whether keys (an array of structs with a `key`) names key.
+template <typename Keys>
+auto names_in(const Keys& keys) {
+  return [&keys](std::string_view key) {
+    return std::any_of(std::begin(keys), std::end(keys), [key](const auto& k) { return key == k.key; });
+  };
+}
+
 ObserverLoopFile parse_observer(const toml::table& root, const std::string& name) {
   ObserverLoopFile o;
   const toml::table* model_table = toml_section(root, "model", name);
   if (model_table == nullptr) throw InputError(name + ": [model] missing (type = \"observer\" is designed on it)");
-  const TomlTable model(model_table, "model", name,
-                        {"peltier_per_a_s", "joule_k_per_a2_s", "loss_per_s", "shell_ratio", "shell_tau_s",
-                         "internal_k_per_s", "dead_time_s", "sensor_lag_s", "rail_a"});
+  const TomlTable model(model_table, "model", name, names_in(kModelKeys));
   for (const ModelKey& k : kModelKeys) o.model.*k.field = required(model, k.key, k.min, k.max);
   const toml::table* observer_table = toml_section(root, "observer", name);
   if (observer_table == nullptr) throw InputError(name + ": [observer] missing (type = \"observer\" needs its noises)");
-  const TomlTable t(observer_table, "observer", name,
-                    {"design_ambient_c", "reading_step_c", "reading_noise_c", "ambient_noise_c", "noise_floor_steps",
-                     "initial_heat_k_per_s", "heat_walk_k_per_s_per_sqrt_s", "ambient_walk_c_per_sqrt_s",
-                     "node_walk_c_per_sqrt_s", "error_scale_c", "current_scale_a"});
-  control::ObserverLoopSpec& spec = o.spec;
-  spec.design_ambient_c = required(t, "design_ambient_c", -100.0, 200.0);
-  spec.reading_step_c = t.number("reading_step_c", spec.reading_step_c, 0.0, 10.0);
-  spec.reading_noise_c = t.number("reading_noise_c", 0.0, 0.0, 10.0);
-  spec.ambient_noise_c = t.number("ambient_noise_c", 0.0, 0.0, 10.0);
-  spec.noise_floor_steps = t.number("noise_floor_steps", spec.noise_floor_steps, 0.0, 10.0);
-  spec.initial_heat_w = required(t, "initial_heat_k_per_s", 1e-15, 100.0);
-  spec.disturbance_w_per_sqrt_s = required(t, "heat_walk_k_per_s_per_sqrt_s", 1e-15, 100.0);
-  spec.ambient_c_per_sqrt_s = t.number("ambient_walk_c_per_sqrt_s", spec.ambient_c_per_sqrt_s, 1e-9, 100.0);
-  spec.node_c_per_sqrt_s = t.number("node_walk_c_per_sqrt_s", spec.node_c_per_sqrt_s, 1e-9, 100.0);
-  spec.error_scale_c = t.number("error_scale_c", spec.error_scale_c, 1e-6, 100.0);
-  spec.current_scale_a = t.number("current_scale_a", spec.current_scale_a, 1e-6, 100.0);
+  const TomlTable t(observer_table, "observer", name, names_in(kSpecKeys));
+  for (const SpecKey& k : kSpecKeys) {
+    double& value = o.spec.*k.field;
+    value = k.required ? required(t, k.key, k.min, k.max) : t.number(k.key, value, k.min, k.max);
+  }
   return o;
 }
 
@@ -185,17 +205,7 @@ std::string format_controller_file(const ControllerFile& c, const std::string& i
     out += "\n[model]                # the identified housing, per unit of the casing's heat capacity\n";
     for (const ModelKey& k : kModelKeys) out += std::string(k.key) + " = " + num(o.model.*k.field) + "\n";
     out += "\n[observer]             # the filter's noises (heats in K/s of the casing) and the LQ weights\n";
-    out += "design_ambient_c = " + num(o.spec.design_ambient_c) + "\n";
-    out += "reading_step_c = " + num(o.spec.reading_step_c) + "\n";
-    out += "reading_noise_c = " + num(o.spec.reading_noise_c) + "\n";
-    out += "ambient_noise_c = " + num(o.spec.ambient_noise_c) + "\n";
-    out += "noise_floor_steps = " + num(o.spec.noise_floor_steps) + "\n";
-    out += "initial_heat_k_per_s = " + num(o.spec.initial_heat_w) + "\n";
-    out += "heat_walk_k_per_s_per_sqrt_s = " + num(o.spec.disturbance_w_per_sqrt_s) + "\n";
-    out += "ambient_walk_c_per_sqrt_s = " + num(o.spec.ambient_c_per_sqrt_s) + "\n";
-    out += "node_walk_c_per_sqrt_s = " + num(o.spec.node_c_per_sqrt_s) + "\n";
-    out += "error_scale_c = " + num(o.spec.error_scale_c) + "\n";
-    out += "current_scale_a = " + num(o.spec.current_scale_a) + "\n";
+    for (const SpecKey& k : kSpecKeys) out += std::string(k.key) + " = " + num(o.spec.*k.field) + "\n";
   } else {
     out += "format = \"gyrotc-controller\"\nversion = 1\n\n[control]\n";
     out += "setpoint_c = " + num(c.setpoint_c) + "\n";

@@ -119,8 +119,6 @@ const TecCommand& Controller::decide(double now_s) noexcept {
   // A reading that went stale (invalid ones only, since the last valid one)
   // ends a hold: off, to restart with the PID's integral once readings are good.
   if ((faults & kFlagTempStale) != 0) return loop_.off(now_s, true);
-  // A dead ADC: off, to restart with the PID's integral once samples come again.
-  if ((faults & kFlagAdcStalled) != 0) return loop_.off(now_s, true);
   const std::uint32_t stop = kFlagTempStuck | kFlagOverTempLatched | kFlagOpa548Thermal;
   if ((faults & stop) != 0 || !config_.pid_enabled || loop_.program_finished()) return loop_.off(now_s, false);
   const double casing_c = supervisor_.casing_c();
@@ -157,6 +155,14 @@ TecCommand run_pid_tick(Controller& controller, hal::TecDriver& tec, double now_
   }
   controller.on_tec_applied(applied, now_s);
   return controller.last_command();
+}
+
+void run_thermal_poll(Controller& controller, hal::TecDriver& tec, double now_s) noexcept {
+  if (!controller.tec_driving()) return;
+  const auto thermal = tec.thermal_status();
+  if (thermal.ok() && thermal.value() != hal::ThermalStatus::shutdown) return;
+  controller.on_opa548_thermal(true, now_s);
+  (void)tec.safe_off();
 }
 
 double RowAccumulator::mean_gyro_mv() const noexcept {

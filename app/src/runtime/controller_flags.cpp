@@ -16,6 +16,7 @@ const char* flag_name(std::uint32_t flag) noexcept {
     case kFlagAdcStalled: return "adc_stalled";
     case kFlagTecWriteFailed: return "tec_write_failed";
     case kFlagRateDacFailed: return "rate_dac_failed";
+    case kFlagUncontrolled: return "uncontrolled";
     default: return "";
   }
 }

@@ -115,6 +115,7 @@ void LockstepRunner::handle_events(double now) {
   }
   saturated_ = saturated_ || board_.plant().tec_limited();
   if (now >= next_record_s_) {
+    run_thermal_poll(controller_, devices_.tec, now);
     emit_record(now);
     while (next_record_s_ <= now) next_record_s_ += options_.record_period_s;
   }
@@ -132,8 +133,7 @@ void LockstepRunner::emit_record(double now) {
   row.die_c = plant.die_c();
   row.tec_v = plant.tec_voltage_v();
   row.tec_a = plant.tec_current_a();
-  const TecCommand& command = controller_.last_command();
-  row.tec_command_a = command.enable ? command.current_a : 0.0;
+  row.tec_command_a = controller_.reported_tec_a();
   row.ambient_reading_c = ambient_reading_c_;
   row.setpoint_c = controller_.active_setpoint_c();
   row.gyro_mv = row_sums_.mean_gyro_mv();

@@ -64,7 +64,14 @@ void RealtimeRunner::loop() noexcept {
 }
 
 bool RealtimeRunner::step() noexcept {
+  const double asked_s = board_.clock.now_s();
   auto sample = board_.adc.read(adc_timeout_s_);
+  // A read that fails at once (a GPIO or SPI error with no DRDY wait) must
+  // not spin this SCHED_FIFO thread: the pass waits out a sample period, so
+  // the loop still wakes for the TEC's period and the other threads run.
+  if (!sample.ok() && board_.clock.now_s() < asked_s + options_.sample_period_s) {
+    board_.clock.sleep_until(asked_s + options_.sample_period_s);
+  }
   // The loop runs now: the wake-up latency is measured from the DRDY edge
   // (or the conversion instant on the simulated board).
   double now = board_.clock.now_s();
@@ -105,6 +112,7 @@ bool RealtimeRunner::step() noexcept {
   }
 
   if (now >= next_row_s_) {
+    run_thermal_poll(controller_, board_.tec, now);
     push_row(now);
     publish_status();
     while (next_row_s_ <= now) next_row_s_ += options_.output_period_s;
@@ -126,8 +134,7 @@ void RealtimeRunner::push_row(double now_s) noexcept {
   row.rate_dps = row_sums_.mean_rate_dps();
   row.casing_c = have_casing_ ? controller_.last_casing_c() : kNaN;  // no reading yet: not 0 C
   row.ambient_c = ambient_c_;
-  const TecCommand& command = controller_.last_command();
-  row.tec_a = command.enable ? command.current_a : 0.0;
+  row.tec_a = controller_.reported_tec_a();
   row.setpoint_c = controller_.active_setpoint_c();
   row.flags = row_sums_.flags | controller_.flags();
   row.samples = static_cast<std::uint32_t>(row_sums_.gyro_count);
@@ -137,12 +144,13 @@ void RealtimeRunner::push_row(double now_s) noexcept {
 }
 
 void RealtimeRunner::publish_status() noexcept {
-  const TecCommand& command = controller_.last_command();
   status_.store(LoopStatus{.casing_c = have_casing_ ? controller_.last_casing_c() : kNaN,
                            .ambient_c = ambient_c_,
                            .setpoint_c = controller_.active_setpoint_c(),
-                           .tec_a = command.enable ? command.current_a : 0.0,
-                           .flags = controller_.flags()});
+                           .tec_a = controller_.reported_tec_a(),
+                           .flags = controller_.flags(),
+                           .compensation_c = controller_.compensation_c(),
+                           .estimate = controller_.loop_estimate()});
 }
 
 void RealtimeRunner::publish_readings(const hal::TemperatureReading& casing,

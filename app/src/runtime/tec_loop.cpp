@@ -110,6 +110,11 @@ const TecCommand& TecLoop::program_tick(double now_s, double casing_c, double am
   return drive(current_a, current_a != out.current_a, now_s);
 }
 
+LoopEstimate TecLoop::estimate() const noexcept {
+  if (!observer_ || !observer_->started() || program_ != nullptr) return {};
+  return {observer_->controlled_estimate_c(), observer_->ambient_estimate_c(), observer_->holding_current_a()};
+}
+
 control::CurrentRange TecLoop::applied_range(double casing_c, double ambient_c) const noexcept {
   return control::applied_range(config_.pid.out_min, config_.pid.out_max, config_.rail, casing_c, ambient_c);
 }

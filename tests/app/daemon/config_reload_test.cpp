@@ -127,10 +127,13 @@ TEST_CASE("a reload that changes the model-based loop, or the loop's type, is on
   const ControllerConfig pid;
   const ControllerConfig observer = apply_controller_file(file, pid, "a.toml");
   const ControllerConfig same = apply_controller_file(file, pid, "a.toml");
+  file.observer->spec.ambient_noise_c *= 2.0;  // the filter's gain only: the LQ feedback is the same
+  const ControllerConfig other_filter = apply_controller_file(file, pid, "b.toml");
   file.setpoint_c = 50.0;
   const ControllerConfig other = apply_controller_file(file, pid, "b.toml");
   CHECK(same_model_based_loop(pid, pid));
   CHECK(same_model_based_loop(observer, same));
+  CHECK_FALSE(same_model_based_loop(observer, other_filter));
   CHECK_FALSE(same_model_based_loop(observer, other));
   CHECK_FALSE(same_model_based_loop(pid, observer));
   CHECK_FALSE(same_model_based_loop(observer, pid));

@@ -3,10 +3,12 @@
 #include <toml++/toml.h>
 
 #include "gyrotc/app/daemon/config.hpp"
+#include "gyrotc/app/formats/controller_file.hpp"
 #include "gyrotc/app/support/errors.hpp"
 #include "gyrotc_catch.hpp"
 #include "test_paths.hpp"
 #include "input_error_of.hpp"
+#include "observer_controller_file.hpp"
 
 using gyrotc::app::DaemonConfig;
 using gyrotc::app::parse_daemon_config;
@@ -106,4 +108,26 @@ TEST_CASE("daemon config: board errors come from the board section parser with t
 TEST_CASE("daemon config: PID output limits beyond the TEC current limit are rejected") {
   CHECK(error_of("hal = \"sim\"\n[tec]\ncurrent_limit_a = 1.0\n[control]\nout_max_a = 2.0\n")
             .rfind("test.toml:5: control.out_max_a: must be within -1 .. 1", 0) == 0);
+}
+
+TEST_CASE("daemon config: a feed-forward without an ambient sensor is rejected naming the key") {
+  CHECK(error_of("hal = \"sim\"\n[control]\nfeed_forward_a_per_c = 0.02\n") ==
+        "test.toml:3: control.feed_forward_a_per_c: needs the ambient reading, and [devices.ambient_sensor] is absent");
+  CHECK(error_of("hal = \"sim\"\n[devices.ambient_sensor]\nid = \"28-01\"\n[devices.casing_sensor]\nid = \"28-02\"\n"
+                 "[control]\nfeed_forward_a_per_c = 0.02\n")
+            .empty());
+}
+
+TEST_CASE("daemon config: a model-based loop's controller file needs the ambient sensor it was identified with") {
+  const std::string file = gyrotc::test::scratch_dir() + "/observer.toml";
+  gyrotc::app::save_controller_file(gyrotc::test::observer_controller_file(), file);
+  DaemonConfig with_ambient = gyrotc::app::load_daemon_config(gyrotc::test::sim_config_copy("observer_with_ambient"));
+  REQUIRE(with_ambient.board.devices.ambient_sensor);
+  gyrotc::app::use_controller_file(with_ambient, file);
+  CHECK(with_ambient.controller.observer != nullptr);
+
+  DaemonConfig without = parse("hal = \"sim\"\n");
+  CHECK(gyrotc::test::input_error_of([&] { gyrotc::app::use_controller_file(without, file); }) ==
+        file + ": type = \"observer\": the model-based loop reads the ambient, and test.toml has no "
+               "[devices.ambient_sensor]");
 }

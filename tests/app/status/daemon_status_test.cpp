@@ -165,3 +165,27 @@ TEST_CASE("a status file that cannot be written is an answer naming it, not an e
   const std::string error = write_file_atomically("/nonexistent-dir/status.json", "x");
   CHECK(error.find("/nonexistent-dir/status.json") != std::string::npos);
 }
+
+TEST_CASE("the model-based loop's estimates are in the JSON and the Prometheus text, absent with the PID") {
+  DaemonStatus pid = holding();
+  pid.compensation_c = 55.02;
+  const nlohmann::json j = nlohmann::json::parse(status_json(pid));
+  CHECK(j["estimate"].is_null());
+  CHECK(j["compensation_c"].get<double>() == 55.02);
+  const std::string pid_text = prometheus_text(pid);
+  CHECK(pid_text.find("gyrotc_compensation_temperature_celsius 55.02\n") != std::string::npos);
+  CHECK(pid_text.find("gyrotc_estimated_held_temperature_celsius") == std::string::npos);
+
+  DaemonStatus observer = holding();
+  observer.estimate = {.held_c = 55.004, .ambient_c = 16.2, .holding_a = 0.187};
+  const nlohmann::json k = nlohmann::json::parse(status_json(observer));
+  REQUIRE(k["estimate"].is_object());
+  CHECK(k["estimate"]["held_c"].get<double>() == 55.004);
+  CHECK(k["estimate"]["ambient_c"].get<double>() == 16.2);
+  CHECK(k["estimate"]["holding_a"].get<double>() == 0.187);
+  CHECK(k["compensation_c"].is_null());
+  const std::string text = prometheus_text(observer);
+  CHECK(text.find("gyrotc_estimated_held_temperature_celsius 55.004\n") != std::string::npos);
+  CHECK(text.find("gyrotc_estimated_ambient_temperature_celsius 16.2\n") != std::string::npos);
+  CHECK(text.find("gyrotc_holding_current_amperes 0.187\n") != std::string::npos);
+}

@@ -51,7 +51,13 @@ class StderrCapture {
 };
 
 LoopStatus loop_at(double casing_c, double setpoint_c = 55.0, std::uint32_t flags = 0) {
-  return LoopStatus{.casing_c = casing_c, .ambient_c = 16.0, .setpoint_c = setpoint_c, .tec_a = 0.2, .flags = flags};
+  return LoopStatus{.casing_c = casing_c,
+                    .ambient_c = 16.0,
+                    .setpoint_c = setpoint_c,
+                    .tec_a = 0.2,
+                    .flags = flags,
+                    .compensation_c = casing_c,
+                    .estimate = {}};
 }
 
 std::size_t count(const std::string& text, const std::string& what) {

@@ -41,12 +41,13 @@ python3 - "$work/status.out" <<'PY'
 import json, sys
 j = json.load(open(sys.argv[1]))
 for key in ("format", "running", "state", "summary", "pid", "hal", "config", "mode", "uptime_s", "casing_c",
-            "ambient_c", "setpoint_c", "error_c", "tec_a", "tec_limit_a", "flags", "flag_names", "faults",
+            "ambient_c", "setpoint_c", "error_c", "tec_a", "tec_limit_a", "compensation_c", "estimate", "flags", "flag_names", "faults",
             "calibration", "latency_us", "counters", "status_file", "age_s", "problem"):
     assert key in j, f"status --json has no {key}"
 assert j["state"] in ("warming", "cooling", "holding", "saturated", "fault"), j["state"]
-for key in ("casing_c", "ambient_c", "setpoint_c", "tec_a", "tec_limit_a"):
+for key in ("casing_c", "ambient_c", "setpoint_c", "tec_a", "tec_limit_a", "compensation_c"):
     assert isinstance(j[key], (int, float)), f"{key} is not a number: {j[key]!r}"
+assert j["estimate"] is None, "the PID has no model estimate"
 assert j["running"] is True and j["problem"] is None
 assert len(j["calibration"]["sha256"]) == 64
 print("status:", j["summary"])
@@ -68,6 +69,7 @@ values = {(s.name, tuple(sorted(s.labels.items()))): s.value for f in families f
 assert values[("gyrotc_up", ())] == 1
 assert sum(v for (n, _), v in values.items() if n == "gyrotc_state") == 1, "exactly one state is 1"
 assert ("gyrotc_tec_current_amperes", ()) in values and ("gyrotc_casing_temperature_celsius", ()) in values
+assert ("gyrotc_compensation_temperature_celsius", ()) in values
 print(f"metrics: {len(families)} families parsed by prometheus_client")
 PY
 

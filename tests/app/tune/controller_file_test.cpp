@@ -31,6 +31,10 @@ ControllerFile sample() {
   return c;
 }
 
+// A board with the ambient sensor a tuned loop's feed-forward reads.
+constexpr const char* kTwoSensors =
+    "[devices.casing_sensor]\nid = \"28-000000000001\"\n[devices.ambient_sensor]\nid = \"28-000000000002\"\n";
+
 std::string write_temp(const std::string& name, const std::string& text) {
   const std::string path = gyrotc::test::scratch_dir() + "/" + name;
   std::ofstream(path) << text;
@@ -105,7 +109,7 @@ TEST_CASE("the daemon configuration's controller_file sets the controller, relat
   std::filesystem::create_directories(dir);
   save_controller_file(sample(), dir + "/unit.toml");
   const std::string cfg = dir + "/gyrotc.toml";
-  std::ofstream(cfg) << "hal = \"sim\"\n[control]\ncontroller_file = \"unit.toml\"\n";
+  std::ofstream(cfg) << "hal = \"sim\"\n" << kTwoSensors << "[control]\ncontroller_file = \"unit.toml\"\n";
   const DaemonConfig c = load_daemon_config(cfg);
   CHECK(c.controller_file == dir + "/unit.toml");
   CHECK(c.controller.pid.kp == 1.25);
@@ -115,8 +119,8 @@ TEST_CASE("the daemon configuration's controller_file sets the controller, relat
 }
 
 TEST_CASE("the daemon configuration reads [control] feed_forward_lag_s and refuses it next to a controller_file") {
-  const std::string own = write_temp("ff_lag.toml", "hal = \"sim\"\n[control]\nfeed_forward_a_per_c = 0.005\n"
-                                                    "feed_forward_lag_s = 120.0\n");
+  const std::string own = write_temp("ff_lag.toml", "hal = \"sim\"\n" + std::string(kTwoSensors) +
+                                                        "[control]\nfeed_forward_a_per_c = 0.005\nfeed_forward_lag_s = 120.0\n");
   CHECK(load_daemon_config(own).controller.feed_forward_lag_s == 120.0);
   const std::string both = write_temp("ff_lag_conflict.toml", "hal = \"sim\"\n[control]\ncontroller_file = \"unit.toml\"\n"
                                                               "feed_forward_lag_s = 120.0\n");

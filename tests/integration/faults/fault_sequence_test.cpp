@@ -31,7 +31,11 @@ class SequenceRig {
         controller_(controller_config_, compensator_),
         profile_({{"hold", 0.0, 1e6, ambient_c, ambient_c}}),
         runner_(board_, controller_, profile_) {
-    runner_.on_record([this](const app::RecordRow& row) { rows_.push_back(row); });
+    runner_.on_record([this](const app::RecordRow& row) {
+      rows_.push_back(row);
+      // The current the status and the rows report, against the stage.
+      if (controller_.reported_tec_a() != 0.0 && !board_.opa548_chip().output_enabled()) ++phantom_current_rows_;
+    });
   }
 
   void run_until(double t_s) { runner_.run_until(t_s); }
@@ -54,6 +58,8 @@ class SequenceRig {
     return since;
   }
   const app::RecordRow& last_row() const { return rows_.back(); }
+  // Rows at which the controller reported a TEC current the OPA548 did not drive.
+  int phantom_current_rows() const { return phantom_current_rows_; }
 
  private:
   static model::PlantParams plant_at(model::PlantParams p, double ambient_c) {
@@ -77,6 +83,7 @@ class SequenceRig {
   model::ChamberProfile profile_;
   app::LockstepRunner runner_;
   std::vector<app::RecordRow> rows_;
+  int phantom_current_rows_ = 0;
 };
 
 }  // namespace
@@ -114,7 +121,8 @@ namespace {
 
 // One fault of a random sequence: what, from when, for how long.
 struct FaultSpan {
-  enum class Kind { casing_sensor, drdy_stall, opa548_shutdown } kind;
+  enum class Kind { casing_sensor, ambient_sensor, drdy_stall, opa548_shutdown, adc_spi, rate_dac_spi, tec_dac_spi };
+  Kind kind = Kind::casing_sensor;
   hal::SimTempFault sensor_fault = hal::SimTempFault::none;
   double onset_s = 0.0;
   double end_s = 0.0;
@@ -124,17 +132,22 @@ std::vector<FaultSpan> random_sequence(std::mt19937_64& rng, double from_s, doub
   constexpr hal::SimTempFault kSensorFaults[] = {
       hal::SimTempFault::disconnect, hal::SimTempFault::crc_error, hal::SimTempFault::stuck,
       hal::SimTempFault::power_on_reset, hal::SimTempFault::all_zero, hal::SimTempFault::low_resolution};
+  constexpr FaultSpan::Kind kDeviceFaults[] = {FaultSpan::Kind::ambient_sensor, FaultSpan::Kind::drdy_stall,
+                                               FaultSpan::Kind::opa548_shutdown, FaultSpan::Kind::adc_spi,
+                                               FaultSpan::Kind::rate_dac_spi, FaultSpan::Kind::tec_dac_spi};
   std::uniform_int_distribution<int> count(1, 5);
-  std::uniform_int_distribution<int> kind(0, 7);  // sensor faults six times as often as each device fault
+  // The casing sensor's faults as often as all the others together.
+  std::uniform_int_distribution<std::size_t> kind(0, 2 * std::size(kDeviceFaults) - 1);
   std::uniform_int_distribution<std::size_t> sensor(0, std::size(kSensorFaults) - 1);
   std::uniform_real_distribution<double> onset(from_s, to_s);
   std::uniform_real_distribution<double> duration(1.0, 240.0);
   std::vector<FaultSpan> spans(static_cast<std::size_t>(count(rng)));
   for (FaultSpan& f : spans) {
-    const int k = kind(rng);
-    f.kind = k == 6 ? FaultSpan::Kind::drdy_stall : k == 7 ? FaultSpan::Kind::opa548_shutdown
-                                                            : FaultSpan::Kind::casing_sensor;
-    if (f.kind == FaultSpan::Kind::casing_sensor) f.sensor_fault = kSensorFaults[sensor(rng)];
+    const std::size_t k = kind(rng);
+    f.kind = k < std::size(kDeviceFaults) ? kDeviceFaults[k] : FaultSpan::Kind::casing_sensor;
+    if (f.kind == FaultSpan::Kind::casing_sensor || f.kind == FaultSpan::Kind::ambient_sensor) {
+      f.sensor_fault = kSensorFaults[sensor(rng)];
+    }
     f.onset_s = onset(rng);
     f.end_s = f.onset_s + duration(rng);
   }
@@ -153,22 +166,31 @@ double play(SequenceRig& rig, const std::vector<FaultSpan>& spans) {
   }
   const double start_s = std::floor(first_s);
   for (double t = start_s; t <= last_s + 1.0; t += 1.0) {
-    hal::SimTempFault sensor = hal::SimTempFault::none;
-    double sensor_onset_s = -1.0;
-    bool stall = false;
-    bool shutdown = false;
+    hal::SimTempFault casing = hal::SimTempFault::none;
+    hal::SimTempFault ambient = hal::SimTempFault::none;
+    double casing_onset_s = -1.0;
+    double ambient_onset_s = -1.0;
+    bool on[7] = {};
     for (const FaultSpan& f : spans) {
       if (t < f.onset_s || t >= f.end_s) continue;
-      if (f.kind == FaultSpan::Kind::drdy_stall) stall = true;
-      if (f.kind == FaultSpan::Kind::opa548_shutdown) shutdown = true;
-      if (f.kind == FaultSpan::Kind::casing_sensor && f.onset_s > sensor_onset_s) {
-        sensor = f.sensor_fault;
-        sensor_onset_s = f.onset_s;
+      on[static_cast<int>(f.kind)] = true;
+      if (f.kind == FaultSpan::Kind::casing_sensor && f.onset_s > casing_onset_s) {
+        casing = f.sensor_fault;
+        casing_onset_s = f.onset_s;
+      }
+      if (f.kind == FaultSpan::Kind::ambient_sensor && f.onset_s > ambient_onset_s) {
+        ambient = f.sensor_fault;
+        ambient_onset_s = f.onset_s;
       }
     }
-    rig.inject(sensor);
-    rig.board().inject_drdy_stall(stall);
-    rig.board().inject_opa548_thermal_shutdown(shutdown);
+    const auto is_on = [&on](FaultSpan::Kind k) { return on[static_cast<int>(k)]; };
+    rig.inject(casing);
+    rig.board().inject_ambient_sensor_fault(ambient);
+    rig.board().inject_drdy_stall(is_on(FaultSpan::Kind::drdy_stall));
+    rig.board().inject_opa548_thermal_shutdown(is_on(FaultSpan::Kind::opa548_shutdown));
+    rig.board().inject_spi_error(is_on(FaultSpan::Kind::adc_spi));
+    rig.board().inject_rate_dac_spi_error(is_on(FaultSpan::Kind::rate_dac_spi));
+    rig.board().inject_tec_dac_spi_error(is_on(FaultSpan::Kind::tec_dac_spi));
     rig.run_until(t + 1.0);
   }
   return last_s;
@@ -176,12 +198,13 @@ double play(SequenceRig& rig, const std::vector<FaultSpan>& spans) {
 
 }  // namespace
 
-// No fault sequence leaves the loop off (issue 75, item 4): random onsets,
-// durations, overlaps and recoveries of every casing sensor fault, a stopped
-// DRDY and an OPA548 shutdown, on a casing held at 55 C; once all have
-// cleared the TEC drives again and the casing is back within the settle band
-// within kRecoveryS (the OPA548's 60 s cool-down and a warm-up from wherever
-// the faults left the casing).
+// No fault sequence leaves the loop off: random onsets, durations, overlaps
+// and recoveries of every fault of both DS18B20s, a stopped DRDY, an OPA548
+// shutdown and an SPI error on each of the three devices, on a casing held at
+// 55 C; once all have cleared the TEC drives again and the casing is back
+// within the settle band within kRecoveryS (the OPA548's 60 s cool-down and a
+// warm-up from wherever the faults left the casing), and no row meanwhile
+// reported a TEC current the stage was not driving.
 TEST_CASE("fault sequence: after any random sequence of sensor and device faults the loop drives and settles again") {
   constexpr double kRecoveryS = 900.0;
   for (const ControllerMode mode : {ControllerMode::paper, ControllerMode::tuned}) {
@@ -196,6 +219,7 @@ TEST_CASE("fault sequence: after any random sequence of sensor and device faults
       rig.run_until(cleared_s + kRecoveryS + 300.0);
       CHECK((rig.last_row().flags & app::kFlagTecOff) == 0);
       CHECK(rig.settled_since_s(cleared_s) <= cleared_s + kRecoveryS);
+      CHECK(rig.phantom_current_rows() == 0);
     }
   }
 }

@@ -33,6 +33,7 @@ struct HousingModel {
   double swing_neg_v = -std::numeric_limits<double>::infinity();
   double current_limit_a = std::numeric_limits<double>::infinity();
 
+  bool operator==(const HousingModel&) const = default;
   int node_count() const noexcept { return static_cast<int>(network.nodes.size()); }
   bool has_lag() const noexcept { return network.casing_sensor.tau_s > 0.0; }
   bool has_ambient_lag() const noexcept { return network.ambient_sensor.tau_s > 0.0; }

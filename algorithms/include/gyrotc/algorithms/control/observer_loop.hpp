@@ -64,6 +64,8 @@ struct ObserverLoopSpec {
   double error_scale_c = 0.01;
   double current_scale_a = 0.02;
   double max_step_s = 0.1;          // the model's integration step
+
+  bool operator==(const ObserverLoopSpec&) const = default;
 };
 
 struct ObserverLoopDesign {
@@ -112,6 +114,8 @@ class ObserverLoop {
               double max_a) noexcept;
 
   bool saturated() const noexcept { return saturated_; }
+  // Whether a tick has started the filter (the estimates mean nothing before).
+  bool started() const noexcept { return started_; }
   // The estimates after the last tick's update.
   double controlled_estimate_c() const noexcept;
   double node_estimate_c(int node) const noexcept { return posterior_(node); }

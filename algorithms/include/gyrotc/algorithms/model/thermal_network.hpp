@@ -18,12 +18,16 @@ struct NetworkNode {
   std::string name;
   double capacity_j_per_k = 0.0;
   double heat_w = 0.0;  // constant heat released in the node (electronics)
+
+  bool operator==(const NetworkNode&) const = default;
 };
 
 struct NetworkLink {
   int a = kAmbientNode;  // node index or kAmbientNode
   int b = kAmbientNode;
   double w_per_k = 0.0;
+
+  bool operator==(const NetworkLink&) const = default;
 };
 
 // A temperature sensor on a node: a first-order lag (its own package and the
@@ -34,6 +38,8 @@ struct NetworkSensor {
   double tau_s = 0.0;
   double offset_c = 0.0;
   double noise_c = 0.0;
+
+  bool operator==(const NetworkSensor&) const = default;
 };
 
 struct ThermalNetwork {
@@ -46,6 +52,8 @@ struct ThermalNetwork {
   NetworkSensor casing_sensor;
   NetworkSensor ambient_sensor;  // on the ambient unless a file says otherwise
   int gyro_node = kAmbientNode;
+
+  bool operator==(const ThermalNetwork&) const = default;
 
   // The index of the node called name, kAmbientNode for "ambient", -2 when
   // there is none.

@@ -47,6 +47,8 @@ struct DaemonStatus {
                                    // over 60 s at most (NaN outside the band)
   double tec_a = 0.0;              // commanded TEC current (0 when off)
   double tec_limit_a = 0.0;        // the PID's current limit (the larger of |out_min|, |out_max|)
+  double compensation_c = kNoValue;  // the temperature the rate is compensated at (the die's, with a die calibration)
+  LoopEstimate estimate;             // the model-based loop's (NaN with the PID)
   std::uint32_t flags = 0;         // controller flags (controller.hpp)
   std::vector<FaultEvent> faults;  // active ones and the last cleared ones, oldest first
   std::string calibration;         // describe(CalibrationInUse)

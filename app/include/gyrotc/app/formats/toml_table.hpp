@@ -32,12 +32,14 @@ class TomlTable {
   TomlTable(const toml::table* table, std::string name, const std::string& source,
             std::initializer_list<std::string_view> allowed)
       : table_(table), name_(std::move(name)), source_(source) {
-    if (table_ == nullptr) return;
-    for (auto&& [key, node] : *table_) {
-      if (std::find(allowed.begin(), allowed.end(), key.str()) == allowed.end()) {
-        fail(node, std::string(key.str()), "unknown key in [" + name_ + "]");
-      }
-    }
+    refuse_unknown_keys([&](std::string_view key) { return std::find(allowed.begin(), allowed.end(), key) != allowed.end(); });
+  }
+  // allowed(key): whether the table may hold key (e.g. whether a table of
+  // key descriptions names it).
+  template <typename Allowed>
+  TomlTable(const toml::table* table, std::string name, const std::string& source, Allowed allowed)
+      : table_(table), name_(std::move(name)), source_(source) {
+    refuse_unknown_keys(allowed);
   }
 
   [[noreturn]] void fail(const toml::node& node, const std::string& key, const std::string& why) const {
@@ -94,6 +96,13 @@ class TomlTable {
   }
 
  private:
+  template <typename Allowed>
+  void refuse_unknown_keys(Allowed allowed) const {
+    if (table_ == nullptr) return;
+    for (auto&& [key, node] : *table_) {
+      if (!allowed(key.str())) fail(node, std::string(key.str()), "unknown key in [" + name_ + "]");
+    }
+  }
   const toml::table* table_;
   std::string name_;
   const std::string& source_;

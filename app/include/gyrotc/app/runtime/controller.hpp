@@ -123,10 +123,24 @@ class Controller {
   // The reload last applied (nullptr before any). Any thread.
   const ControllerConfig* reload_applied() const noexcept { return applied_.load(std::memory_order_acquire); }
 
-  std::uint32_t flags() const noexcept { return rate_.flags() | supervisor_.flags() | loop_.flags(); }
+  std::uint32_t flags() const noexcept {
+    const std::uint32_t f = rate_.flags() | supervisor_.flags() | loop_.flags();
+    const bool uncontrolled = (f & kTecPathFaults) != 0 && !tec_driving();
+    return uncontrolled ? f | kFlagUncontrolled : f;
+  }
+  // Whether the stage drives the command, as far as the controller knows: the
+  // command is enabled and neither the TEC path nor the OPA548 has failed
+  // since (an OPA548 shutdown is seen between periods too: run_thermal_poll).
+  bool tec_driving() const noexcept {
+    return loop_.last_command().enable && (supervisor_.flags() & (kFlagOpa548Thermal | kFlagTecWriteFailed)) == 0;
+  }
+  // The TEC current the status and the rows report: never one the stage is
+  // not driving.
+  double reported_tec_a() const noexcept { return tec_driving() ? loop_.last_command().current_a : 0.0; }
   // The setpoint in use (ramping with setpoint_ramp_c_per_s).
   double active_setpoint_c() const noexcept { return loop_.active_setpoint_c(); }
   double last_casing_c() const noexcept { return supervisor_.casing_c(); }
+  LoopEstimate loop_estimate() const noexcept { return loop_.estimate(); }
   // The temperature the model is evaluated at: the last casing reading, or
   // the die's estimate (NaN before the first reading).
   double compensation_c() const noexcept {
@@ -157,6 +171,12 @@ class Controller {
 // command out to the TEC stage. A current the DAC did not take leaves the TEC
 // off rather than enabled at an unknown current.
 TecCommand run_pid_tick(Controller& controller, hal::TecDriver& tec, double now_s) noexcept;
+
+// Between PID periods, as both runners do it before each row: while the TEC
+// is driven, an OPA548 thermal shutdown on E/S (or an E/S that cannot be
+// read) is taken at once: flagged, the stage disabled, reported at 0 A; the
+// next period turns the loop off for the cool-down.
+void run_thermal_poll(Controller& controller, hal::TecDriver& tec, double now_s) noexcept;
 
 // What the per-sample path produced since the last output row: the sums for
 // the mean raw and compensated rate, and every flag raised. Both runners

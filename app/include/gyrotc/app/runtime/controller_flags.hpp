@@ -18,10 +18,26 @@ enum ControllerFlag : std::uint32_t {
   kFlagModelClamped = 1u << 6,    // compensation temperature outside the calibrated range
   kFlagTecSaturated = 1u << 7,    // the PID output is at its limit
   kFlagTecOff = 1u << 8,          // the TEC is commanded off (0 A, OPA548 disabled)
-  kFlagAdcStalled = 1u << 9,      // no ADC sample for adc_stall_s: TEC off until samples return
+  kFlagAdcStalled = 1u << 9,      // no ADC sample for adc_stall_s: the rate output invalid, the TEC loop goes on
   kFlagTecWriteFailed = 1u << 10, // the TEC DAC or the OPA548's E/S line refused the command: TEC off, retried
   kFlagRateDacFailed = 1u << 11,  // the rate DAC refused the compensated output: the analog rate is stale
+  kFlagUncontrolled = 1u << 12,   // a fault stopped the TEC: the rate is compensated at a temperature not held
 };
+
+// The faults: the flags that stop the TEC path or make the rate output
+// invalid. model_clamped, tec_saturated, tec_off and uncontrolled report
+// what the controller does, not a fault of the board.
+inline constexpr std::uint32_t kFaultFlags = kFlagTempStale | kFlagTempInvalid | kFlagTempStuck |
+                                             kFlagOverTempLatched | kFlagOpa548Thermal | kFlagAdcInvalid |
+                                             kFlagAdcStalled | kFlagTecWriteFailed | kFlagRateDacFailed;
+// The faults of the TEC path (the casing sensor, the OPA548, the TEC DAC):
+// while one of them has the TEC off, the rate output is flagged uncontrolled.
+inline constexpr std::uint32_t kTecPathFaults = kFlagTempStale | kFlagTempInvalid | kFlagTempStuck |
+                                                kFlagOverTempLatched | kFlagOpa548Thermal | kFlagTecWriteFailed;
+
+// The flags the journal tells as they are raised and cleared (with the words
+// of runtime/fault_matrix): the faults, and model_clamped.
+inline constexpr std::uint32_t kJournalFlags = kFaultFlags | kFlagModelClamped;
 
 // The name of each flag bit (for the journal); "" for a bit that is none.
 const char* flag_name(std::uint32_t flag) noexcept;

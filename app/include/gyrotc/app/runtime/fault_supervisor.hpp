@@ -34,9 +34,10 @@ struct FailSafeLimits {
   // disabled part reads "no fault" whether or not its junction has cooled.
   double opa548_cooldown_s = 60.0;
   // No ADC sample for this long (DRDY never falls, every read fails): the
-  // converter or its clock is dead, and with it the unit's output; the board
-  // fault may be one the TEC path shares (supply, SPI). The TEC goes off
-  // until samples come again, then the PID restarts where it stopped.
+  // converter or its clock is dead, and with it the unit's rate output. The
+  // temperature loop goes on: it needs neither the ADC nor the rate DAC, and
+  // a fault the TEC path shares (supply, SPI) shows as its own
+  // tec_write_failed or a sensor fault.
   double adc_stall_s = 10.0;
   // Plausible casing range; outside it a reading is invalid (DS18B20: -55..125 C).
   double min_valid_c = -55.0;

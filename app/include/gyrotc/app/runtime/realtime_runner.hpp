@@ -75,6 +75,8 @@ struct LoopStatus {
   double setpoint_c = 0.0;   // active setpoint
   double tec_a = 0.0;        // commanded TEC current (0 when off)
   std::uint32_t flags = 0;   // controller flags
+  double compensation_c = 0.0;  // the temperature the rate is compensated at (NaN before the first reading)
+  LoopEstimate estimate;        // the model-based loop's
 };
 
 class RealtimeRunner {

@@ -27,6 +27,15 @@ struct TecCommand {
   std::uint32_t flags = 0;
 };
 
+// What the model-based loop estimates after its last period; NaN with the
+// PID or a programme, and before the loop's first period.
+struct LoopEstimate {
+  double held_c = std::numeric_limits<double>::quiet_NaN();     // the temperature the loop holds (its sensor's node)
+  double ambient_c = std::numeric_limits<double>::quiet_NaN();  // the ambient the housing sees
+  // The current that holds the setpoint against the estimated heat and ambient.
+  double holding_a = std::numeric_limits<double>::quiet_NaN();
+};
+
 class TecLoop {
  public:
   // `config` is the Controller's, read at every period (a reload changes it).
@@ -61,6 +70,7 @@ class TecLoop {
   // The whole flag word in the last command (the Controller's, after a period).
   void set_command_flags(std::uint32_t flags) noexcept { command_.flags = flags; }
   std::uint32_t flags() const noexcept { return flags_; }
+  LoopEstimate estimate() const noexcept;
 
  private:
   const TecCommand& drive(double current_a, bool saturated, double now_s) noexcept;
