@@ -40,6 +40,7 @@ FailSafeLimits parse_failsafe(const TomlTable& t) {
   l.over_temp_c = t.number("over_temp_c", l.over_temp_c, -55.0, 125.0);
   l.opa548_cooldown_s = t.number("opa548_cooldown_s", l.opa548_cooldown_s, 0.0, 86400.0);
   l.adc_stall_s = t.number("adc_stall_s", l.adc_stall_s, 0.1, 3600.0);
+  l.ambient_stale_s = t.number("ambient_stale_s", l.ambient_stale_s, 1.0, 86400.0);
   return l;
 }
 
@@ -54,7 +55,8 @@ DaemonConfig parse_daemon_config(const toml::table& root, const std::string& sou
 
   const TomlTable failsafe(toml_section(root, "failsafe", source), "failsafe", source,
                            {"stale_periods", "stuck_s", "stuck_min_drive_a", "stuck_span_a", "recovery_readings",
-                            "over_temp_c", "opa548_cooldown_s", "adc_stall_s", "min_valid_c", "max_valid_c"});
+                            "over_temp_c", "opa548_cooldown_s", "adc_stall_s", "ambient_stale_s", "min_valid_c",
+                            "max_valid_c"});
   c.controller.limits = parse_failsafe(failsafe);
 
   const TomlTable control(toml_section(root, "control", source), "control", source,

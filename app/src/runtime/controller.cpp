@@ -49,6 +49,7 @@ void validate(const ControllerConfig& c) {
   require(std::isfinite(l.opa548_cooldown_s) && l.opa548_cooldown_s >= 0.0, "opa548_cooldown_s",
           "must be zero or positive");
   require(std::isfinite(l.adc_stall_s) && l.adc_stall_s > 0.0, "adc_stall_s", "must be positive");
+  require(std::isfinite(l.ambient_stale_s) && l.ambient_stale_s > 0.0, "ambient_stale_s", "must be positive");
   require(l.recovery_readings >= 1, "recovery_readings", "must be at least 1");
   require(std::isfinite(l.min_valid_c) && std::isfinite(l.max_valid_c) &&
               l.min_valid_c < l.max_valid_c,

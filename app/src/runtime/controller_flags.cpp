@@ -17,6 +17,7 @@ const char* flag_name(std::uint32_t flag) noexcept {
     case kFlagTecWriteFailed: return "tec_write_failed";
     case kFlagRateDacFailed: return "rate_dac_failed";
     case kFlagUncontrolled: return "uncontrolled";
+    case kFlagAmbientStale: return "ambient_stale";
     default: return "";
   }
 }

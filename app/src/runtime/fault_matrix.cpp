@@ -34,6 +34,11 @@ constexpr FaultEntry kMatrix[] = {
      "the next good sample"},
     {kFlagRateDacFailed, "rate DAC (SPI error)", TecPath::drives, RateOutputState::stale,
      "the rate DAC refused a write (SPI error): the analog rate output is stale", "the next write it takes"},
+    {kFlagAmbientStale, "ambient DS18B20 (unplugged, CRC, any invalid reading)", TecPath::drives,
+     RateOutputState::compensated,
+     "no valid ambient reading for failsafe.ambient_stale_s: the loop goes on with the last one (feed-forward, the "
+     "model-based loop's input)",
+     "the next valid ambient reading"},
     {kFlagModelClamped, "the calibration (the casing or die outside its range; not a fault)", TecPath::drives,
      RateOutputState::clamped, "casing (or die) temperature outside the calibration's range: compensated at its end",
      "a compensation temperature inside the range"},

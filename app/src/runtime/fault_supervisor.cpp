@@ -48,6 +48,10 @@ bool FaultSupervisor::on_temperature(const hal::TemperatureReading& reading, dou
 
 std::optional<double> FaultSupervisor::on_ambient_temperature(const hal::TemperatureReading& reading,
                                                               double now_s) noexcept {
+  if (!ambient_expected_) {
+    ambient_expected_ = true;
+    ambient_time_s_ = now_s;  // staleness counts from the sensor's first report
+  }
   if (!reading.valid || !std::isfinite(reading.temp_c) || reading.temp_c < limits_.min_valid_c ||
       reading.temp_c > limits_.max_valid_c) {
     return std::nullopt;
@@ -56,6 +60,7 @@ std::optional<double> FaultSupervisor::on_ambient_temperature(const hal::Tempera
   have_ambient_ = true;
   ambient_c_ = reading.temp_c;
   ambient_time_s_ = now_s;
+  set_flag(flags_, kFlagAmbientStale, false);
   return since_s;
 }
 
@@ -99,6 +104,7 @@ void FaultSupervisor::on_tick(double now_s, double period_s) noexcept {
     last_sample_s_ = now_s;
   }
   if (now_s - last_sample_s_ > l.adc_stall_s) set_flag(flags_, kFlagAdcStalled, true);
+  if (ambient_expected_ && now_s - ambient_time_s_ > l.ambient_stale_s) set_flag(flags_, kFlagAmbientStale, true);
 }
 
 bool FaultSupervisor::take_new_reading() noexcept { return std::exchange(reading_since_tick_, false); }

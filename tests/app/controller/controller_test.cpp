@@ -371,7 +371,8 @@ TEST_CASE("an ADC that never delivers is flagged adc_stall_s after the first tic
 TEST_CASE("every fault flag has a name for the journal, and a bit that is no flag has none") {
   for (const std::uint32_t f : {kFlagTempStale, kFlagTempInvalid, kFlagTempStuck, kFlagOverTempLatched,
                                 kFlagOpa548Thermal, kFlagAdcInvalid, kFlagModelClamped, kFlagTecSaturated, kFlagTecOff,
-                                kFlagAdcStalled, kFlagTecWriteFailed, kFlagRateDacFailed, kFlagUncontrolled}) {
+                                kFlagAdcStalled, kFlagTecWriteFailed, kFlagRateDacFailed, kFlagUncontrolled,
+                                kFlagAmbientStale}) {
     CHECK(std::string(flag_name(f)).size() > 3);
   }
   CHECK(std::string(flag_name(1u << 20)).empty());

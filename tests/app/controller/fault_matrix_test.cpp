@@ -30,6 +30,7 @@ struct Injection {
   bool opa548_shutdown = false;
   bool tec_write_ok = true;
   bool rate_dac_ok = true;
+  bool ambient_valid = true;    // the ambient sensor's reading (one every 10 s)
 };
 
 // A controller holding 50 C readings (alternating one step) at the seed's
@@ -51,6 +52,11 @@ struct MatrixRig {
       controller.on_rate_output(in.rate_dac_ok);
     } else {
       controller.on_adc_timeout(now_s);
+    }
+    if (static_cast<long>(now_s) % 10 == 0) {
+      controller.on_ambient_temperature({20.0, now_s - 0.75, in.ambient_valid, in.ambient_valid ? TempFault::none
+                                                                                                 : TempFault::crc},
+                                        now_s);
     }
     if (in.reading) {
       TemperatureReading r = in.casing;
@@ -114,6 +120,10 @@ void inject(MatrixRig& rig, std::uint32_t flag) {
     case kFlagRateDacFailed:
       in.rate_dac_ok = false;
       rig.run(2.0, in);
+      return;
+    case kFlagAmbientStale:
+      in.ambient_valid = false;
+      rig.run(l.ambient_stale_s + 12.0, in);
       return;
     case kFlagModelClamped:
       in.casing = reading_of(-45.0);  // below the paper's calibration (-40 C), a valid reading

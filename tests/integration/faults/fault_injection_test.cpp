@@ -232,3 +232,18 @@ TEST_CASE("fault: the rate DAC's SPI failing is named while the temperature loop
   rig.run(1.0);
   CHECK((rig.controller().flags() & app::kFlagRateDacFailed) == 0);
 }
+
+TEST_CASE("fault: the ambient DS18B20 unplugged is flagged ambient_stale, the TEC drives on, a reading clears it") {
+  Rig rig;
+  warm_up(rig);
+  rig.sim().inject_ambient_sensor_fault(hal::SimTempFault::disconnect);
+  rig.run(10.0);
+  CHECK((rig.controller().flags() & app::kFlagAmbientStale) == 0);  // not yet: 10 s without a reading
+  rig.run(20.0);  // past failsafe.ambient_stale_s (25 s)
+  CHECK((rig.take_row_flags() & app::kFlagAmbientStale) != 0);
+  CHECK(rig.tec_driving());
+  CHECK((rig.controller().flags() & app::kFlagUncontrolled) == 0);
+  rig.sim().inject_ambient_sensor_fault(hal::SimTempFault::none);
+  rig.run(2.0);
+  CHECK((rig.controller().flags() & app::kFlagAmbientStale) == 0);
+}

@@ -22,6 +22,7 @@ enum ControllerFlag : std::uint32_t {
   kFlagTecWriteFailed = 1u << 10, // the TEC DAC or the OPA548's E/S line refused the command: TEC off, retried
   kFlagRateDacFailed = 1u << 11,  // the rate DAC refused the compensated output: the analog rate is stale
   kFlagUncontrolled = 1u << 12,   // a fault stopped the TEC: the rate is compensated at a temperature not held
+  kFlagAmbientStale = 1u << 13,   // no valid ambient reading for ambient_stale_s: the loop uses the last one
 };
 
 // The faults: the flags that stop the TEC path or make the rate output
@@ -29,7 +30,8 @@ enum ControllerFlag : std::uint32_t {
 // what the controller does, not a fault of the board.
 inline constexpr std::uint32_t kFaultFlags = kFlagTempStale | kFlagTempInvalid | kFlagTempStuck |
                                              kFlagOverTempLatched | kFlagOpa548Thermal | kFlagAdcInvalid |
-                                             kFlagAdcStalled | kFlagTecWriteFailed | kFlagRateDacFailed;
+                                             kFlagAdcStalled | kFlagTecWriteFailed | kFlagRateDacFailed |
+                                             kFlagAmbientStale;
 // The faults of the TEC path (the casing sensor, the OPA548, the TEC DAC):
 // while one of them has the TEC off, the rate output is flagged uncontrolled.
 inline constexpr std::uint32_t kTecPathFaults = kFlagTempStale | kFlagTempInvalid | kFlagTempStuck |

@@ -9,7 +9,7 @@
 // The Controller's fault supervisor: what the readings, the ADC's samples,
 // the OPA548 and the TEC path say of the board, as flags (temp_stale,
 // temp_invalid, temp_stuck, over_temp_latched, opa548_thermal, adc_stalled,
-// tec_write_failed), and the casing and ambient readings the TEC loop may
+// tec_write_failed, ambient_stale), and the casing and ambient readings the TEC loop may
 // use. It decides nothing about the current: the Controller reads its flags.
 namespace gyrotc::app {
 
@@ -39,6 +39,11 @@ struct FailSafeLimits {
   // a fault the TEC path shares (supply, SPI) shows as its own
   // tec_write_failed or a sensor fault.
   double adc_stall_s = 10.0;
+  // No valid ambient reading for this long (the ambient sensor converts every
+  // kAmbientEveryReadings-th sensor cycle, about 10.5 s: two missed; one
+  // glitch is no fault): the loop goes on with the last one (its
+  // feed-forward, the model-based loop's input), flagged.
+  double ambient_stale_s = 25.0;
   // Plausible casing range; outside it a reading is invalid (DS18B20: -55..125 C).
   double min_valid_c = -55.0;
   double max_valid_c = 125.0;
@@ -91,9 +96,10 @@ class FaultSupervisor {
   double drive_lo_a_ = 0.0;
   double drive_hi_a_ = 0.0;
 
+  bool ambient_expected_ = false;  // an ambient sensor reports (valid or not)
   bool have_ambient_ = false;
   double ambient_c_ = 0.0;
-  double ambient_time_s_ = 0.0;
+  double ambient_time_s_ = 0.0;   // the last valid ambient reading, or the first report before one
 
   double opa548_off_until_s_ = 0.0;
   bool have_adc_time_ = false;
