@@ -132,7 +132,21 @@ app::ControllerConfig config_for(app::ControllerMode mode, const Variant& v) {
 struct LoopFigures {
   double settle_s = -1.0;  // < 0: never settled
   double error_c = -1.0;   // over the fixed window; < 0: no run
+  bool stuck_alarm = false;  // temp_stuck raised with a healthy sensor (a false alarm)
   std::vector<app::RecordRow> rows;
+};
+
+// The casing sensor frozen in the fig26 run (issue 75, item 3): during the
+// warm-up (kFreezeWarmUpS), when the reading must move, and in the hold
+// before the chamber's programme (kFreezeHoldS), when the model-based loop
+// holds on its model and its check shares that model.
+constexpr double kFreezeWarmUpS = 400.0;
+constexpr double kFreezeHoldS = 1700.0;
+struct FrozenFigures {
+  double warm_up_detect_s = -1.0;  // after the freeze; < 0: not detected
+  double warm_up_moved_c = -1.0;   // how far the true casing had left the frozen reading then
+  double hold_detect_s = -1.0;     // after the freeze; < 0: not detected by the end
+  double hold_error_c = -1.0;      // the in-band error over the fixed window with the sensor frozen
 };
 
 struct Outcome {
@@ -149,6 +163,9 @@ struct Outcome {
   LoopFigures pid;           // tune --loop pid: the seed's PID structure with gains from the record
   std::string pid_error;     // tune refused
   LoopFigures tuned, paper;  // the fixed presets
+  bool experiment_stuck_alarm = false;  // temp_stuck in the identification experiment
+  FrozenFigures model_frozen, oracle_frozen;
+  bool model_ran = false, oracle_ran = false;  // the frozen runs were made
   bool pass = false;
   std::string verdict;
 };
@@ -191,23 +208,68 @@ bool holds_band(const PlantParams& p, double limit_a, std::string& why) {
   return true;
 }
 
-LoopFigures fig26(const PlantParams& plant, const app::ControllerConfig& controller) {
+// The fig26 run, the casing sensor frozen from freeze_s on (never when < 0).
+app::SimulationResult fig26_run(const PlantParams& plant, const app::ControllerConfig& controller, double freeze_s) {
   static const fit::BiasModel calibration = fit::BiasModel::paper_reference();
   app::SimulationSetup s;
   s.plant = plant;
   s.controller = controller;
   s.calibration = &calibration;
   s.sample_rate_hz = kSampleRateHz;
-  app::SimulationResult r = app::run_simulation(s, app::chamber_profile_by_name("fig26", GYROTC_DATA_DIR));
-  LoopFigures f;
-  f.settle_s = r.summary.settle_s;
-  f.error_c = 0.0;
-  for (const app::RecordRow& row : r.rows) {
+  bool frozen = false;
+  if (freeze_s >= 0.0) {
+    s.on_record = [&frozen, freeze_s](hal::SimBoard& board, const app::RecordRow& row) {
+      if (!frozen && row.time_s >= freeze_s) {
+        board.inject_casing_sensor_fault(hal::SimTempFault::stuck);
+        frozen = true;
+      }
+    };
+  }
+  return app::run_simulation(s, app::chamber_profile_by_name("fig26", GYROTC_DATA_DIR));
+}
+
+double in_band_error_c(const std::vector<app::RecordRow>& rows) {
+  double error_c = 0.0;
+  for (const app::RecordRow& row : rows) {
     if (row.time_s >= kWindowStartS && row.ambient_c >= kBandLowC && row.ambient_c <= kBandHighC) {
-      f.error_c = std::max(f.error_c, std::fabs(row.casing_c - kSetpointC));
+      error_c = std::max(error_c, std::fabs(row.casing_c - kSetpointC));
     }
   }
+  return error_c;
+}
+
+// The first row from from_s on with temp_stuck (nullptr: none).
+const app::RecordRow* first_stuck(const std::vector<app::RecordRow>& rows, double from_s) {
+  for (const app::RecordRow& row : rows) {
+    if (row.time_s >= from_s && (row.flags & app::kFlagTempStuck) != 0) return &row;
+  }
+  return nullptr;
+}
+
+LoopFigures fig26(const PlantParams& plant, const app::ControllerConfig& controller) {
+  app::SimulationResult r = fig26_run(plant, controller, -1.0);
+  LoopFigures f;
+  f.settle_s = r.summary.settle_s;
+  f.error_c = in_band_error_c(r.rows);
+  f.stuck_alarm = first_stuck(r.rows, 0.0) != nullptr;
   f.rows = std::move(r.rows);
+  return f;
+}
+
+FrozenFigures frozen(const PlantParams& plant, const app::ControllerConfig& controller) {
+  FrozenFigures f;
+  const app::SimulationResult warm_up = fig26_run(plant, controller, kFreezeWarmUpS);
+  double frozen_c = 0.0;
+  for (const app::RecordRow& row : warm_up.rows) {
+    if (row.time_s <= kFreezeWarmUpS + 1.0) frozen_c = row.sensor_c;
+  }
+  if (const app::RecordRow* row = first_stuck(warm_up.rows, kFreezeWarmUpS)) {
+    f.warm_up_detect_s = row->time_s - kFreezeWarmUpS;
+    f.warm_up_moved_c = std::fabs(row->casing_c - frozen_c);
+  }
+  const app::SimulationResult hold = fig26_run(plant, controller, kFreezeHoldS);
+  if (const app::RecordRow* row = first_stuck(hold.rows, kFreezeHoldS)) f.hold_detect_s = row->time_s - kFreezeHoldS;
+  f.hold_error_c = in_band_error_c(hold.rows);
   return f;
 }
 
@@ -229,8 +291,9 @@ Outcome run_variant(const Variant& v, const std::string& dir) {
 
   // The identification experiment, recorded as the board records it.
   const std::string record_csv = dir + "/record.csv";
-  app::write_board_record_csv(
-      app::simulate_tune_experiment(v.plant, kRoomC, kSampleRateHz, {}, v.configured_limit_a).rows, record_csv);
+  const auto experiment = app::simulate_tune_experiment(v.plant, kRoomC, kSampleRateHz, {}, v.configured_limit_a);
+  o.experiment_stuck_alarm = first_stuck(experiment.rows, 0.0) != nullptr;
+  app::write_board_record_csv(experiment.rows, record_csv);
 
   // tune, from the file alone, for each loop.
   const app::TuneInput input = app::read_tune_record(record_csv);
@@ -252,8 +315,13 @@ Outcome run_variant(const Variant& v, const std::string& dir) {
       error = e.what();
       return;
     }
-    figures = fig26(v.plant, app::apply_controller_file(app::load_controller_file(controller_toml),
-                                                        config_for(app::ControllerMode::paper, v), controller_toml));
+    const app::ControllerConfig config = app::apply_controller_file(
+        app::load_controller_file(controller_toml), config_for(app::ControllerMode::paper, v), controller_toml);
+    figures = fig26(v.plant, config);
+    if (loop == app::TuneLoop::observer) {
+      o.model_frozen = frozen(v.plant, config);
+      o.model_ran = true;
+    }
   };
   tuned_from_data(app::TuneLoop::observer, "observer", o.model, o.model_error);
   tuned_from_data(app::TuneLoop::pid, "pid", o.pid, o.pid_error);
@@ -261,6 +329,8 @@ Outcome run_variant(const Variant& v, const std::string& dir) {
   o.paper = fig26(v.plant, config_for(app::ControllerMode::paper, v));
   try {
     o.oracle = fig26(v.plant, config_for(app::ControllerMode::oracle, v));
+    o.oracle_frozen = frozen(v.plant, config_for(app::ControllerMode::oracle, v));
+    o.oracle_ran = true;
   } catch (const std::invalid_argument& e) {
     o.oracle_error = e.what();
   }
@@ -292,6 +362,67 @@ std::string num(double v, const char* format) {
   char buf[32];
   std::snprintf(buf, sizeof buf, format, v);
   return buf;
+}
+
+// Which loops raised temp_stuck with a healthy sensor (" FALSE STUCK: oracle, observer"; empty: none).
+std::string false_stuck_of(const Outcome& o) {
+  std::string who;
+  for (const auto& [name, figures] : {std::pair<const char*, const LoopFigures*>{"oracle", &o.oracle},
+                                      {"observer", &o.model}, {"pid", &o.pid}, {"tuned", &o.tuned},
+                                      {"paper", &o.paper}}) {
+    if (figures->stuck_alarm) who += std::string(who.empty() ? " FALSE STUCK: " : ", ") + name;
+  }
+  return who;
+}
+
+// The stuck-sensor check over the suite (issue 75, item 3; docs/FAULTS.md).
+std::string stuck_summary(const std::vector<Outcome>& outcomes) {
+  std::size_t runs = 0, experiment = 0;
+  std::size_t alarms[5] = {0, 0, 0, 0, 0};  // oracle, observer, pid, tuned, paper
+  for (const auto& o : outcomes) {
+    ++runs;
+    experiment += o.experiment_stuck_alarm ? 1 : 0;
+    alarms[0] += o.oracle.stuck_alarm ? 1 : 0;
+    alarms[1] += o.model.stuck_alarm ? 1 : 0;
+    alarms[2] += o.pid.stuck_alarm ? 1 : 0;
+    alarms[3] += o.tuned.stuck_alarm ? 1 : 0;
+    alarms[4] += o.paper.stuck_alarm ? 1 : 0;
+  }
+  std::ostringstream md;
+  md << "- Stuck casing sensor (issue 75, item 3). False `temp_stuck` alarms with a healthy sensor, over the fig26 "
+        "programme of the "
+     << runs << " variants: the oracle " << alarms[0] << ", the model-based loop from data " << alarms[1]
+     << ", the PID from data " << alarms[2] << ", `tuned` " << alarms[3] << ", `paper` " << alarms[4]
+     << "; in the identification experiment " << experiment << ".\n";
+  const auto frozen_line = [&md, &outcomes](const char* who, FrozenFigures Outcome::*field, bool Outcome::*ran) {
+    std::vector<double> detect;
+    std::size_t tried = 0, hold_detected = 0;
+    double worst_moved = 0.0, worst_hold_error = 0.0;
+    for (const auto& o : outcomes) {
+      if (!(o.*ran) || !o.feasible) continue;
+      const FrozenFigures& f = o.*field;
+      ++tried;
+      if (f.warm_up_detect_s >= 0.0) {
+        detect.push_back(f.warm_up_detect_s);
+        worst_moved = std::max(worst_moved, f.warm_up_moved_c);
+      }
+      hold_detected += f.hold_detect_s >= 0.0 ? 1 : 0;
+      worst_hold_error = std::max(worst_hold_error, f.hold_error_c);
+    }
+    std::sort(detect.begin(), detect.end());
+    md << "  - " << who << " on the " << tried << " feasible variants it ran on, the sensor frozen at " << kFreezeWarmUpS
+       << " s (the warm-up; some plants have settled by then): named on " << detect.size() << ", "
+       << (detect.empty() ? std::string("-")
+                          : num(detect[detect.size() / 2], "%.0f") + " s after the freeze (median), at most " +
+                                num(detect.back(), "%.0f") + " s")
+       << ", the true casing then at most " << num(worst_moved, "%.2f") << " C from the frozen reading. Frozen at "
+       << kFreezeHoldS << " s (held, before the chamber moves): named on " << hold_detected
+       << "; the loop holds on its model meanwhile (a check sharing the model cannot see it), largest in-band error "
+       << num(worst_hold_error, "%.3f") << " C.\n";
+  };
+  frozen_line("the model-based loop from data", &Outcome::model_frozen, &Outcome::model_ran);
+  frozen_line("the oracle", &Outcome::oracle_frozen, &Outcome::oracle_ran);
+  return md.str();
 }
 
 std::string factors_of(const PlantParams& p) {
@@ -570,10 +701,14 @@ int run(const Options& opt) {
     const Outcome& o = outcomes.back();
     std::fprintf(stderr,
                  "[%zu/%zu] %-32s t_min %5.0f | oracle %5.0f s %.3f C | observer %5.0f s %.3f C | pid %5.0f s %.3f "
-                 "C | tuned %5.0f s %.3f C | paper %5.0f s %.3f C | %s%s%s\n",
+                 "C | tuned %5.0f s %.3f C | paper %5.0f s %.3f C | frozen: warm-up %3.0f s %.2f C, hold %4.0f s "
+                 "%.3f C%s | %s%s%s\n",
                  k + 1, all.size(), o.variant.name.c_str(), o.minimum_s, o.oracle.settle_s, o.oracle.error_c,
                  o.model.settle_s, o.model.error_c, o.pid.settle_s, o.pid.error_c, o.tuned.settle_s, o.tuned.error_c,
-                 o.paper.settle_s, o.paper.error_c, o.verdict.c_str(), o.feasible ? "" : " (infeasible plant)",
+                 o.paper.settle_s, o.paper.error_c, o.model_frozen.warm_up_detect_s, o.model_frozen.warm_up_moved_c,
+                 o.model_frozen.hold_detect_s, o.model_frozen.hold_error_c,
+                 false_stuck_of(o).c_str(),
+                 o.verdict.c_str(), o.feasible ? "" : " (infeasible plant)",
                  o.oracle_error.empty() ? "" : (" (oracle: " + o.oracle_error + ")").c_str());
   }
   if (!opt.only.empty()) {
@@ -667,6 +802,7 @@ int run(const Options& opt) {
       oracle_worst_excess_s = std::max(oracle_worst_excess_s, o.oracle.settle_s - o.minimum_s);
     }
   }
+  md << stuck_summary(outcomes);
   md << "- The reference loop (`oracle`: designed on the plant's own physics) on the " << feasible
      << " feasible variants: settles on " << oracle_settled << ", at most " << num(oracle_worst_excess_s, "%.0f")
      << " s after the physical minimum; largest in-band error " << num(oracle_worst_error, "%.3f") << " C"

@@ -204,11 +204,14 @@ ObserverLoop::ObserverLoop(std::shared_ptr<const ObserverLoopDesign> design)
   xss_ = Eigen::VectorXd::Zero(n);
   probe_ = Eigen::VectorXd::Zero(n);
   posterior_ = Eigen::VectorXd::Zero(n + 2);
+  shadow_z_ = Eigen::VectorXd::Zero(n + 2);
+  shadow_p_ = Eigen::MatrixXd::Zero(n + 2, n + 2);
   holding_a_ = design_->operating_current_a;
 }
 
 void ObserverLoop::restart(bool keep_heat) noexcept {
   if (!started_ || keep_heat) return;
+  shadow_started_ = false;  // from the next reading, on the new estimate
   const int h = heat_index();
   z_(h) = 0.0;
   p_.row(h).setZero();
@@ -221,6 +224,7 @@ void ObserverLoop::coast(double current_a) noexcept {
   posterior_ = z_;
   last_current_a_ = current_a;
   predict(current_a);
+  if (shadow_started_) predict_shadow(current_a);
 }
 
 void ObserverLoop::start(double reading_c, double ambient_reading_c) noexcept {
@@ -242,9 +246,9 @@ void ObserverLoop::start(double reading_c, double ambient_reading_c) noexcept {
   started_ = true;
 }
 
-void ObserverLoop::update(const Eigen::VectorXd& h, double seen_c, double expected_c, double step_c,
-                          double noise_var) noexcept {
-  gain_.noalias() = p_ * h;
+void ObserverLoop::update(Eigen::VectorXd& z, Eigen::MatrixXd& p, const Eigen::VectorXd& h, double seen_c,
+                          double expected_c, double step_c, double noise_var) noexcept {
+  gain_.noalias() = p * h;
   const double mean_c = expected_c;
   const double var = h.dot(gain_) + noise_var;  // of the unrounded reading
   double posterior_mean_c = seen_c;
@@ -272,9 +276,9 @@ void ObserverLoop::update(const Eigen::VectorXd& h, double seen_c, double expect
       // ambient, a model far off): take it as a reading with the step's
       // uniform error, as a plain Kalman filter would.
       const double s = var + step_c * step_c / 12.0;
-      z_ += gain_ * ((seen_c - mean_c) / s);
-      p_.noalias() -= (gain_ / s) * gain_.transpose();
-      symmetrise(p_);
+      z += gain_ * ((seen_c - mean_c) / s);
+      p.noalias() -= (gain_ / s) * gain_.transpose();
+      symmetrise(p);
       return;
     }
   } else {
@@ -282,9 +286,9 @@ void ObserverLoop::update(const Eigen::VectorXd& h, double seen_c, double expect
   }
   // (z, y) jointly Gaussian, y's distribution replaced by the posterior's:
   // E[z] moves by P h (E[y] - mean) / var, Cov[z] loses P h h' P (var - Var[y]) / var^2.
-  z_ += gain_ * ((posterior_mean_c - mean_c) / var);
-  p_.noalias() -= (gain_ * ((var - posterior_var) / (var * var))) * gain_.transpose();
-  symmetrise(p_);
+  z += gain_ * ((posterior_mean_c - mean_c) / var);
+  p.noalias() -= (gain_ * ((var - posterior_var) / (var * var))) * gain_.transpose();
+  symmetrise(p);
 }
 
 void ObserverLoop::predict(double current_a) noexcept {
@@ -295,6 +299,30 @@ void ObserverLoop::predict(double current_a) noexcept {
   p_.noalias() = fp_ * f_.transpose();
   p_ += w_;
   symmetrise(p_);
+}
+
+void ObserverLoop::predict_shadow(double current_a) noexcept {
+  const int n = design_->model.state_count();
+  x_ = shadow_z_.head(n);
+  stepper_.advance(x_, design_->spec.period_s,
+                   HousingInput{current_a, shadow_z_(ambient_index()), shadow_z_(heat_index())});
+  shadow_z_.head(n) = x_;
+  fp_.noalias() = f_ * shadow_p_;
+  shadow_p_.noalias() = fp_ * f_.transpose();
+  shadow_p_ += w_;
+  symmetrise(shadow_p_);
+}
+
+void ObserverLoop::check_reading(double seen_c, double noise_var) noexcept {
+  surprise_ = 0.0;
+  if (!shadow_started_ || seen_c != shadow_reading_c_) return;
+  const double step_c = design_->spec.reading_step_c;
+  gain_.noalias() = shadow_p_ * h_casing_;
+  const double sd = std::sqrt(h_casing_.dot(gain_) + noise_var + step_c * step_c / 12.0);
+  const double expected_c = h_casing_.dot(shadow_z_);
+  const double beyond_c = std::fabs(seen_c - expected_c) - kSurpriseSlackSteps * step_c -
+                          kSurpriseModelError * std::fabs(expected_c - shadow_start_c_);
+  surprise_ = std::max(0.0, beyond_c / sd);
 }
 
 double ObserverLoop::tick(double reading_c, double reading_age_s, double ambient_reading_c, double setpoint_c,
@@ -315,12 +343,29 @@ double ObserverLoop::tick(double reading_c, double reading_age_s, double ambient
                        HousingInput{last_current_a_, posterior_(ambient_index()), posterior_(heat_index())});
       expected_c = h_casing_.head(n).dot(x_);
     }
-    update(h_casing_, reading_c - m.network.casing_sensor.offset_c, expected_c, spec.reading_step_c,
-           quantised_noise_var(spec.reading_noise_c, spec.reading_step_c, spec.noise_floor_steps));
+    const double seen_c = reading_c - m.network.casing_sensor.offset_c;
+    const double reading_var = quantised_noise_var(spec.reading_noise_c, spec.reading_step_c, spec.noise_floor_steps);
+    check_reading(seen_c, reading_var);
+    update(z_, p_, h_casing_, seen_c, expected_c, spec.reading_step_c, reading_var);
     if (std::isfinite(ambient_reading_c)) {
-      update(h_ambient_, ambient_reading_c - m.network.ambient_sensor.offset_c, h_ambient_.dot(z_),
-             spec.reading_step_c, quantised_noise_var(spec.ambient_noise_c, spec.reading_step_c, spec.noise_floor_steps));
+      const double ambient_seen_c = ambient_reading_c - m.network.ambient_sensor.offset_c;
+      const double ambient_var =
+          quantised_noise_var(spec.ambient_noise_c, spec.reading_step_c, spec.noise_floor_steps);
+      update(z_, p_, h_ambient_, ambient_seen_c, h_ambient_.dot(z_), spec.reading_step_c, ambient_var);
+      if (shadow_started_) {
+        update(shadow_z_, shadow_p_, h_ambient_, ambient_seen_c, h_ambient_.dot(shadow_z_), spec.reading_step_c,
+               ambient_var);
+      }
     }
+  }
+  // A reading that moved starts the shadow again, from what the filter knows now.
+  const double seen_now_c = reading_c - m.network.casing_sensor.offset_c;
+  if (!shadow_started_ || seen_now_c != shadow_reading_c_) {
+    shadow_z_ = z_;
+    shadow_p_ = p_;
+    shadow_reading_c_ = seen_now_c;
+    shadow_start_c_ = h_casing_.dot(z_);
+    shadow_started_ = true;
   }
   posterior_ = z_;
   const int n = m.state_count();
@@ -331,6 +376,7 @@ double ObserverLoop::tick(double reading_c, double reading_age_s, double ambient
   saturated_ = current_a != wanted_a;
   last_current_a_ = current_a;
   predict(current_a);
+  predict_shadow(current_a);
   return current_a;
 }
 

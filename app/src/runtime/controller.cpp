@@ -46,6 +46,8 @@ void validate(const ControllerConfig& c) {
           "must be positive");
   require(std::isfinite(l.stuck_span_a) && l.stuck_span_a > 0.0, "stuck_span_a",
           "must be positive");
+  require(std::isfinite(l.stuck_sigma) && l.stuck_sigma > 0.0, "stuck_sigma", "must be positive");
+  require(std::isfinite(l.stuck_sigma_s) && l.stuck_sigma_s >= 0.0, "stuck_sigma_s", "must be zero or positive");
   require(std::isfinite(l.opa548_cooldown_s) && l.opa548_cooldown_s >= 0.0, "opa548_cooldown_s",
           "must be zero or positive");
   require(std::isfinite(l.adc_stall_s) && l.adc_stall_s > 0.0, "adc_stall_s", "must be positive");
@@ -61,7 +63,11 @@ Controller::Controller(const ControllerConfig& config, const fit::Compensator& c
     : config_((validate(config), config)),
       rate_(config.rate_dac_vref_v, config.rate_out_v_per_dps, compensator),
       supervisor_(config_.limits),
-      loop_(config_) {}
+      loop_(config_) {
+  // The model-based loop checks its readings against its model (a reload
+  // keeps the loop: changing it takes a restart).
+  supervisor_.set_model_check(config_.observer != nullptr);
+}
 
 SampleResult Controller::on_sample(const hal::AdcSample& sample, double now_s) noexcept {
   supervisor_.on_sample(now_s);
@@ -107,6 +113,7 @@ TecCommand Controller::on_pid_tick(double now_s) noexcept {
   const TecCommand& command = decide(now_s);
   // The stuck check's evidence: what the TEC drove this period.
   supervisor_.record_command(command.enable ? command.current_a : 0.0);
+  supervisor_.on_reading_check(loop_.reading_surprise(), now_s);
   loop_.set_command_flags(flags());
   return loop_.last_command();
 }

@@ -15,7 +15,8 @@ constexpr FaultEntry kMatrix[] = {
      "invalid casing reading (empty, CRC, 85 C, range, resolution, missing): TEC current held",
      "failsafe.recovery_readings good readings"},
     {kFlagTempStuck, "casing DS18B20 (the same valid reading for ever)", TecPath::off, RateOutputState::uncontrolled,
-     "the casing reading does not change while the TEC drives: TEC off, the rate compensated at the last reading",
+     "the casing reading does not change while the TEC drives, or (model-based loop) where its model says it must: "
+     "TEC off, the rate compensated at the last reading",
      "failsafe.recovery_readings readings of another value"},
     {kFlagOverTempLatched, "the casing (a reading at or above failsafe.over_temp_c)", TecPath::off,
      RateOutputState::uncontrolled, "casing above failsafe.over_temp_c: TEC off until restart",

@@ -85,6 +85,23 @@ void FaultSupervisor::record_command(double current_a) noexcept {
   drive_hi_a_ = std::max(drive_hi_a_, current_a);
 }
 
+void FaultSupervisor::on_reading_check(double surprise, double now_s) noexcept {
+  if (!(surprise > limits_.stuck_sigma)) {
+    surprised_ = false;
+    return;
+  }
+  if (!surprised_) {
+    surprised_ = true;
+    surprised_since_s_ = now_s;
+  }
+  if (have_casing_ && (flags_ & kFlagTempStuck) == 0 && now_s - surprised_since_s_ >= limits_.stuck_sigma_s) {
+    set_flag(flags_, kFlagTempStuck, true);
+    stuck_value_c_ = casing_c_;
+    good_streak_ = 0;
+    surprised_ = false;
+  }
+}
+
 void FaultSupervisor::on_tick(double now_s, double period_s) noexcept {
   const auto& l = limits_;
   const bool stale = !have_casing_ || now_s - casing_time_s_ > l.stale_periods * period_s;
@@ -92,7 +109,8 @@ void FaultSupervisor::on_tick(double now_s, double period_s) noexcept {
     set_flag(flags_, kFlagTempStale, true);
     good_streak_ = 0;
   }
-  const bool driving = drive_min_abs_a_ >= l.stuck_min_drive_a || drive_hi_a_ - drive_lo_a_ >= l.stuck_span_a;
+  const bool driving =
+      drive_min_abs_a_ >= l.stuck_min_drive_a || (!model_check_ && drive_hi_a_ - drive_lo_a_ >= l.stuck_span_a);
   if (have_casing_ && (flags_ & kFlagTempStuck) == 0 && now_s - changed_at_s_ >= l.stuck_s &&
       drive_hi_a_ >= drive_lo_a_ && driving) {
     set_flag(flags_, kFlagTempStuck, true);

@@ -344,7 +344,10 @@ SimulationResult run_simulation(const SimulationSetup& setup, const model::Chamb
   SimulationResult result;
   const double span_s = profile.end_s() - profile.start_s();
   result.rows.reserve(static_cast<std::size_t>(span_s / setup.lockstep.record_period_s) + 2);
-  runner.on_record([&result](const RecordRow& row) { result.rows.push_back(row); });
+  runner.on_record([&result, &setup, &board](const RecordRow& row) {
+    result.rows.push_back(row);
+    if (setup.on_record) setup.on_record(board, row);
+  });
   if (setup.on_sample) runner.on_sample(setup.on_sample);
   if (setup.program == nullptr) {
     runner.run_until(profile.end_s(), progress);

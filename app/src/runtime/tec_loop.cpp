@@ -18,6 +18,7 @@ const TecCommand& TecLoop::off(double now_s, bool resume) noexcept {
   // The model-based loop's filter follows the housing through the stop
   // (0 A: the TEC is off), so that a restart does not start it anew.
   if (observer_) observer_->coast(0.0);
+  reading_surprise_ = 0.0;
   set_flag(flags_, kFlagTecOff, true);
   set_flag(flags_, kFlagTecSaturated, false);
   if (pid_running_) {
@@ -35,6 +36,7 @@ const TecCommand& TecLoop::off(double now_s, bool resume) noexcept {
 
 const TecCommand& TecLoop::hold(double now_s) noexcept {
   if (observer_) observer_->coast(command_.enable ? command_.current_a : 0.0);
+  reading_surprise_ = 0.0;
   command_.flags = flags_;
   last_tick_s_ = now_s;
   return command_;
@@ -72,6 +74,7 @@ const TecCommand& TecLoop::pid_tick(double now_s, double casing_c, double ambien
     const control::CurrentRange range = applied_range(casing_c, ambient_c);
     const double current_a = observer_->tick(casing_c, casing_age_s, new_ambient_c_, active_setpoint_c_, range.min_a, range.max_a);
     new_ambient_c_ = std::numeric_limits<double>::quiet_NaN();
+    reading_surprise_ = observer_->reading_surprise();
     return drive(current_a, observer_->saturated(), now_s);
   }
   const double ff = control::feed_forward_a(config_.feed_forward_a_per_c, config_.setpoint_c, ff_ambient_.value_c());
@@ -88,6 +91,7 @@ const TecCommand& TecLoop::program_tick(double now_s, double casing_c, double am
     program_start_s_ = now_s;
   }
   control::TecProgramInput in;
+  reading_surprise_ = 0.0;
   in.time_s = now_s - program_start_s_;
   in.casing_c = casing_c;
   in.ambient_c = ambient_c;

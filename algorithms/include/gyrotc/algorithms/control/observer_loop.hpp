@@ -30,6 +30,15 @@
 // The clamp is the anti-windup: the loop has no integrator of its own, its
 // integral is the filter's estimate of a heat, which the current applied
 // explains whether or not it saturates.
+//
+// The same filter checks its casing sensor (issue 75, item 3): from the
+// tick the reading last changed, a shadow of the filter goes on without the
+// casing reading (the currents applied and the ambient readings only), its
+// covariance growing by the model's process noise. A healthy reading that
+// stays on one step stays where the shadow puts it, within its uncertainty;
+// a frozen one is left behind once the ambient or the current moves the
+// housing (reading_surprise()). The loop's own filter cannot tell: its
+// unknown heat takes up whatever a frozen reading says.
 namespace gyrotc::control {
 
 struct ObserverLoopSpec {
@@ -122,6 +131,21 @@ class ObserverLoop {
   double heat_estimate_w() const noexcept { return posterior_(heat_index()); }
   double ambient_estimate_c() const noexcept { return posterior_(ambient_index()); }
   double holding_current_a() const noexcept { return holding_a_; }
+  // How far the last tick's casing reading, unchanged since the shadow
+  // started, lay outside what the shadow expects: the distance beyond
+  // kSurpriseSlackSteps steps and kSurpriseModelError of the move the
+  // shadow predicts since it started, in the standard deviations of its
+  // reading (the shadow's spread and the reading's noise). 0 when the
+  // reading changed at that tick or lay within.
+  double reading_surprise() const noexcept { return surprise_; }
+  // Two steps of slack: a DS18B20's reading can stay a step off while its
+  // temperature sits on a step's edge, and the model's rounding reaches one more.
+  static constexpr double kSurpriseSlackSteps = 2.0;
+  // A model from a unit's own record can be wrong by a factor in how fast
+  // the housing moves (the suite's infeasible plants, warming for hours at
+  // the current limit: 3x); half the predicted move is slack, so that a
+  // healthy reading is taken for a stuck one only by a model 6x off.
+  static constexpr double kSurpriseModelError = 0.5;
 
  private:
   int heat_index() const noexcept { return design_->model.state_count(); }
@@ -136,9 +160,16 @@ class ObserverLoop {
   // far as the model carries it, instead of pulling the estimate to the
   // step's middle as white quantisation noise would.
   // expected_c: the model's unrounded reading (h' z, or at the reading's time).
-  void update(const Eigen::VectorXd& h, double seen_c, double expected_c, double step_c, double noise_var) noexcept;
+  // On the estimate (z, p): the filter's or the shadow's.
+  void update(Eigen::VectorXd& z, Eigen::MatrixXd& p, const Eigen::VectorXd& h, double seen_c, double expected_c,
+              double step_c, double noise_var) noexcept;
   // z over one period with current_a, and the covariance with it.
   void predict(double current_a) noexcept;
+  // The shadow over the same period: its own state, the filter's transition
+  // (linearised at the filter's estimate, a degree or so away).
+  void predict_shadow(double current_a) noexcept;
+  // The shadow's verdict on the tick's casing reading, before the filter's update.
+  void check_reading(double seen_c, double noise_var) noexcept;
 
   std::shared_ptr<const ObserverLoopDesign> design_;
   HousingStepper stepper_;
@@ -155,6 +186,14 @@ class ObserverLoop {
   Eigen::VectorXd xss_;        // the steady state that holds the setpoint
   Eigen::VectorXd probe_;
   Eigen::VectorXd posterior_;  // the last tick's updated estimate
+  // The shadow: the filter's estimate when the reading last changed, run on
+  // without casing readings.
+  Eigen::VectorXd shadow_z_;
+  Eigen::MatrixXd shadow_p_;
+  bool shadow_started_ = false;
+  double shadow_reading_c_ = 0.0;  // the reading it started at (offset taken off)
+  double shadow_start_c_ = 0.0;    // the filter's (unrounded) reading then
+  double surprise_ = 0.0;
   double last_current_a_ = 0.0;  // applied since the last tick
   double holding_a_ = 0.0;
   bool started_ = false;

@@ -25,6 +25,16 @@ struct FailSafeLimits {
   double stuck_s = 300.0;
   double stuck_min_drive_a = 0.5;
   double stuck_span_a = 0.3;
+  // Stuck, from the model-based loop's own model (issue 75, item 3): the
+  // reading, unchanged, lies more than stuck_sigma standard deviations
+  // beyond two steps of where the loop's filter, run on without it since it
+  // last changed, puts it (control::ObserverLoop::reading_surprise), at every
+  // period for stuck_sigma_s. It replaces the command's swing
+  // (stuck_span_a): that loop swings its current to hold a reading on one
+  // step through a chamber's ramp (the suite's oracle: a reading unchanged
+  // for 6000 s from -14 to 45 C). With the PID the drive criteria above apply.
+  double stuck_sigma = 4.0;
+  double stuck_sigma_s = 10.0;
   // Consecutive good readings that clear a stale/invalid/stuck fault.
   int recovery_readings = 3;
   // Casing over-temperature: latched off (the DS18B20 itself goes to 125 C).
@@ -67,6 +77,11 @@ class FaultSupervisor {
   void on_tec_write(bool ok) noexcept;
   // The current the period's command drives (0 while off): the stuck check's evidence.
   void record_command(double current_a) noexcept;
+  // The model-based loop's verdict on the period's casing reading (its
+  // surprise; 0 when the loop did not check one): the model's stuck check.
+  void on_reading_check(double surprise, double now_s) noexcept;
+  // Whether the loop checks its readings so (the model-based loop does).
+  void set_model_check(bool on) noexcept { model_check_ = on; }
   // Every PID period, before the command: the stale, stuck and stall checks.
   void on_tick(double now_s, double period_s) noexcept;
   // Whether a valid casing reading came since the last call (one a period).
@@ -95,6 +110,9 @@ class FaultSupervisor {
   double drive_min_abs_a_ = 0.0;
   double drive_lo_a_ = 0.0;
   double drive_hi_a_ = 0.0;
+  bool model_check_ = false;
+  bool surprised_ = false;          // the model's check failed at every period since surprised_since_s_
+  double surprised_since_s_ = 0.0;
 
   bool ambient_expected_ = false;  // an ambient sensor reports (valid or not)
   bool have_ambient_ = false;

@@ -198,6 +198,8 @@ struct SimulationSetup {
   double sample_rate_hz = 1000.0;
   LockstepOptions lockstep;
   LockstepRunner::SampleHook on_sample;  // optional, see LockstepRunner::on_sample
+  // Optional: every record row with the board it came from (fault injection).
+  std::function<void(hal::SimBoard&, const RecordRow&)> on_record;
   // Optional: a TEC programme in the PID's place (Controller::run_program);
   // the run ends when it finishes or the profile ends.
   control::TecProgram* program = nullptr;

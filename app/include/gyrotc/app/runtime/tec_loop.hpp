@@ -71,6 +71,10 @@ class TecLoop {
   void set_command_flags(std::uint32_t flags) noexcept { command_.flags = flags; }
   std::uint32_t flags() const noexcept { return flags_; }
   LoopEstimate estimate() const noexcept;
+  // The model-based loop's check of this period's casing reading
+  // (control::ObserverLoop::reading_surprise); 0 with the PID, a programme,
+  // or a period the loop did not run.
+  double reading_surprise() const noexcept { return reading_surprise_; }
 
  private:
   const TecCommand& drive(double current_a, bool saturated, double now_s) noexcept;
@@ -94,6 +98,7 @@ class TecLoop {
   std::atomic<bool> program_finished_{false};
   double active_setpoint_c_;
   double last_tick_s_ = 0.0;
+  double reading_surprise_ = 0.0;
   TecCommand command_;
 };
 
