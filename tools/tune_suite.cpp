@@ -216,15 +216,7 @@ app::SimulationResult fig26_run(const PlantParams& plant, const app::ControllerC
   s.controller = controller;
   s.calibration = &calibration;
   s.sample_rate_hz = kSampleRateHz;
-  bool frozen = false;
-  if (freeze_s >= 0.0) {
-    s.on_record = [&frozen, freeze_s](hal::SimBoard& board, const app::RecordRow& row) {
-      if (!frozen && row.time_s >= freeze_s) {
-        board.inject_casing_sensor_fault(hal::SimTempFault::stuck);
-        frozen = true;
-      }
-    };
-  }
+  if (freeze_s >= 0.0) s.on_record = app::freeze_casing_sensor_at(freeze_s);
   return app::run_simulation(s, app::chamber_profile_by_name("fig26", GYROTC_DATA_DIR));
 }
 

@@ -48,6 +48,9 @@ void validate(const ControllerConfig& c) {
           "must be positive");
   require(std::isfinite(l.stuck_sigma) && l.stuck_sigma > 0.0, "stuck_sigma", "must be positive");
   require(std::isfinite(l.stuck_sigma_s) && l.stuck_sigma_s >= 0.0, "stuck_sigma_s", "must be zero or positive");
+  require(std::isfinite(l.stuck_probe_s) && l.stuck_probe_s >= 0.0, "stuck_probe_s", "must be zero (off) or positive");
+  require(std::isfinite(l.stuck_probe_hold_s) && l.stuck_probe_hold_s > 0.0, "stuck_probe_hold_s",
+          "must be positive");
   require(std::isfinite(l.opa548_cooldown_s) && l.opa548_cooldown_s >= 0.0, "opa548_cooldown_s",
           "must be zero or positive");
   require(std::isfinite(l.adc_stall_s) && l.adc_stall_s > 0.0, "adc_stall_s", "must be positive");
@@ -63,7 +66,8 @@ Controller::Controller(const ControllerConfig& config, const fit::Compensator& c
     : config_((validate(config), config)),
       rate_(config.rate_dac_vref_v, config.rate_out_v_per_dps, compensator),
       supervisor_(config_.limits),
-      loop_(config_) {
+      loop_(config_),
+      probe_(config_.limits) {
   // The model-based loop checks its readings against its model (a reload
   // keeps the loop: changing it takes a restart).
   supervisor_.set_model_check(config_.observer != nullptr);
@@ -114,6 +118,16 @@ TecCommand Controller::on_pid_tick(double now_s) noexcept {
   // The stuck check's evidence: what the TEC drove this period.
   supervisor_.record_command(command.enable ? command.current_a : 0.0);
   supervisor_.on_reading_check(loop_.reading_surprise(), now_s);
+  // The probe needs a loop that can move the casing: the model-based one,
+  // driving, off its current limit (there a live reading need not follow).
+  if (loop_.model_drove() && (command.flags & kFlagTecSaturated) == 0) {
+    loop_.set_target_offset_c(probe_.on_period(now_s, supervisor_.casing_c(), supervisor_.reading_unchanged_s(now_s),
+                                               loop_.active_setpoint_c()));
+    if (probe_.take_failed()) supervisor_.on_probe_failed();
+  } else {
+    probe_.cancel();
+    loop_.set_target_offset_c(0.0);
+  }
   loop_.set_command_flags(flags());
   return loop_.last_command();
 }

@@ -94,12 +94,18 @@ void FaultSupervisor::on_reading_check(double surprise, double now_s) noexcept {
     surprised_ = true;
     surprised_since_s_ = now_s;
   }
-  if (have_casing_ && (flags_ & kFlagTempStuck) == 0 && now_s - surprised_since_s_ >= limits_.stuck_sigma_s) {
-    set_flag(flags_, kFlagTempStuck, true);
-    stuck_value_c_ = casing_c_;
-    good_streak_ = 0;
-    surprised_ = false;
-  }
+  if (now_s - surprised_since_s_ >= limits_.stuck_sigma_s && raise_stuck()) surprised_ = false;
+}
+
+void FaultSupervisor::on_probe_failed() noexcept { raise_stuck(); }
+
+bool FaultSupervisor::raise_stuck() noexcept {
+  if (!have_casing_ || (flags_ & kFlagTempStuck) != 0) return false;
+  set_flag(flags_, kFlagTempStuck, true);
+  // It clears once recovery_readings readings differ from this one.
+  stuck_value_c_ = casing_c_;
+  good_streak_ = 0;
+  return true;
 }
 
 void FaultSupervisor::on_tick(double now_s, double period_s) noexcept {
@@ -111,12 +117,7 @@ void FaultSupervisor::on_tick(double now_s, double period_s) noexcept {
   }
   const bool driving =
       drive_min_abs_a_ >= l.stuck_min_drive_a || (!model_check_ && drive_hi_a_ - drive_lo_a_ >= l.stuck_span_a);
-  if (have_casing_ && (flags_ & kFlagTempStuck) == 0 && now_s - changed_at_s_ >= l.stuck_s &&
-      drive_hi_a_ >= drive_lo_a_ && driving) {
-    set_flag(flags_, kFlagTempStuck, true);
-    stuck_value_c_ = casing_c_;
-    good_streak_ = 0;
-  }
+  if (now_s - changed_at_s_ >= l.stuck_s && drive_hi_a_ >= drive_lo_a_ && driving) raise_stuck();
   if (!have_adc_time_) {  // the stall is counted from the first tick when no sample came yet
     have_adc_time_ = true;
     last_sample_s_ = now_s;

@@ -316,6 +316,15 @@ void add_calibration_error(RunSummary& summary, const std::vector<RecordRow>& ro
   }
 }
 
+std::function<void(hal::SimBoard&, const RecordRow&)> freeze_casing_sensor_at(double at_s) {
+  return [at_s, frozen = false](hal::SimBoard& board, const RecordRow& row) mutable {
+    if (!frozen && row.time_s >= at_s) {
+      board.inject_casing_sensor_fault(hal::SimTempFault::stuck);
+      frozen = true;
+    }
+  };
+}
+
 SimulationResult run_simulation(const SimulationSetup& setup, const model::ChamberProfile& profile,
                                 const std::function<void(double)>& progress) {
   if (setup.calibration == nullptr) throw std::invalid_argument("run_simulation needs a calibration");

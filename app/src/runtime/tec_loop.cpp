@@ -19,6 +19,7 @@ const TecCommand& TecLoop::off(double now_s, bool resume) noexcept {
   // (0 A: the TEC is off), so that a restart does not start it anew.
   if (observer_) observer_->coast(0.0);
   reading_surprise_ = 0.0;
+  model_drove_ = false;
   set_flag(flags_, kFlagTecOff, true);
   set_flag(flags_, kFlagTecSaturated, false);
   if (pid_running_) {
@@ -37,6 +38,7 @@ const TecCommand& TecLoop::off(double now_s, bool resume) noexcept {
 const TecCommand& TecLoop::hold(double now_s) noexcept {
   if (observer_) observer_->coast(command_.enable ? command_.current_a : 0.0);
   reading_surprise_ = 0.0;
+  model_drove_ = false;
   command_.flags = flags_;
   last_tick_s_ = now_s;
   return command_;
@@ -72,9 +74,11 @@ const TecCommand& TecLoop::pid_tick(double now_s, double casing_c, double ambien
   }
   if (observer_) {
     const control::CurrentRange range = applied_range(casing_c, ambient_c);
-    const double current_a = observer_->tick(casing_c, casing_age_s, new_ambient_c_, active_setpoint_c_, range.min_a, range.max_a);
+    const double current_a = observer_->tick(casing_c, casing_age_s, new_ambient_c_,
+                                             active_setpoint_c_ + target_offset_c_, range.min_a, range.max_a);
     new_ambient_c_ = std::numeric_limits<double>::quiet_NaN();
     reading_surprise_ = observer_->reading_surprise();
+    model_drove_ = true;
     return drive(current_a, observer_->saturated(), now_s);
   }
   const double ff = control::feed_forward_a(config_.feed_forward_a_per_c, config_.setpoint_c, ff_ambient_.value_c());
@@ -92,6 +96,7 @@ const TecCommand& TecLoop::program_tick(double now_s, double casing_c, double am
   }
   control::TecProgramInput in;
   reading_surprise_ = 0.0;
+  model_drove_ = false;
   in.time_s = now_s - program_start_s_;
   in.casing_c = casing_c;
   in.ambient_c = ambient_c;

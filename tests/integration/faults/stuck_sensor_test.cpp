@@ -31,20 +31,15 @@ struct StuckRun {
 
 // The nominal plant under `mode`, with an ambient sensor, the casing sensor
 // frozen at freeze_s (never when negative).
-StuckRun run(app::ControllerMode mode, double warming_c, double freeze_s) {
+StuckRun run(app::ControllerMode mode, double warming_c, double freeze_s, double probe_s = 0.0) {
   static const fit::BiasModel calibration = fit::BiasModel::paper_reference();
   app::SimulationSetup s;
   s.controller = app::controller_preset(mode, s.plant);
+  s.controller.limits.stuck_probe_s = probe_s;
   s.calibration = &calibration;
   s.sample_rate_hz = 20.0;
   s.ambient_sensor = true;
-  bool frozen = false;
-  s.on_record = [&](hal::SimBoard& board, const app::RecordRow& row) {
-    if (freeze_s >= 0.0 && !frozen && row.time_s >= freeze_s) {
-      board.inject_casing_sensor_fault(hal::SimTempFault::stuck);
-      frozen = true;
-    }
-  };
+  if (freeze_s >= 0.0) s.on_record = app::freeze_casing_sensor_at(freeze_s);
   StuckRun r;
   r.rows = app::run_simulation(s, warming_room(warming_c)).rows;
   for (const auto& row : r.rows) {
@@ -99,4 +94,26 @@ TEST_CASE("stuck sensor: frozen in the hold, the model-based loop holds the hous
     if (row.time_s >= kSettledS - 100.0) worst_c = std::max(worst_c, std::fabs(row.casing_c - 55.0));
   }
   CHECK(worst_c < 0.1);
+}
+
+// The active probe (failsafe.stuck_probe_s): after that long on one step the
+// loop's target goes past the step's upper edge, then its lower one, for
+// stuck_probe_hold_s (60 s) each; a frozen reading follows neither.
+TEST_CASE("stuck sensor: the probe names a reading frozen in the hold that the model cannot see") {
+  constexpr double kProbeS = 600.0;
+  const StuckRun r = run(app::ControllerMode::oracle, 8.0, kSettledS - 100.0, kProbeS);
+  REQUIRE(std::isfinite(r.detected_s));
+  CHECK(r.detected_s > kSettledS - 100.0);
+  CHECK(r.detected_s <= kSettledS - 100.0 + kProbeS + 2.0 * 60.0 + 30.0);
+}
+
+TEST_CASE("stuck sensor: a healthy reading follows the probe, no fault, the hold within a step") {
+  constexpr double kProbeS = 600.0;
+  const StuckRun r = run(app::ControllerMode::oracle, 8.0, -1.0, kProbeS);
+  CHECK(std::isnan(r.detected_s));
+  double worst_c = 0.0;
+  for (const auto& row : r.rows) {
+    if (row.time_s >= kSettledS - 600.0) worst_c = std::max(worst_c, std::fabs(row.casing_c - 55.0));
+  }
+  CHECK(worst_c < 0.0625);
 }

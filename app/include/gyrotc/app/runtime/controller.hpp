@@ -14,6 +14,7 @@
 #include "gyrotc/app/runtime/controller_flags.hpp"
 #include "gyrotc/app/runtime/fault_supervisor.hpp"
 #include "gyrotc/app/runtime/rate_output.hpp"
+#include "gyrotc/app/runtime/stuck_probe.hpp"
 #include "gyrotc/app/runtime/tec_loop.hpp"
 #include "gyrotc/hal/devices.hpp"
 #include "gyrotc/hal/temperature_sensor.hpp"
@@ -160,6 +161,7 @@ class Controller {
   RateOutput rate_;
   FaultSupervisor supervisor_;  // reads config_.limits
   TecLoop loop_;                // reads config_
+  StuckProbe probe_;            // reads config_.limits
   // The die's temperature from the casing readings through the compensator's
   // die lag (the readings themselves when it is 0).
   calibrate::DieTemperature die_;

@@ -35,6 +35,11 @@ struct FailSafeLimits {
   // for 6000 s from -14 to 45 C). With the PID the drive criteria above apply.
   double stuck_sigma = 4.0;
   double stuck_sigma_s = 10.0;
+  // And actively (runtime/stuck_probe.hpp): a reading the model-based loop
+  // held on one step for stuck_probe_s is probed past the step's edges, for
+  // stuck_probe_hold_s each; one that follows neither is stuck. 0: off.
+  double stuck_probe_s = 0.0;
+  double stuck_probe_hold_s = 60.0;
   // Consecutive good readings that clear a stale/invalid/stuck fault.
   int recovery_readings = 3;
   // Casing over-temperature: latched off (the DS18B20 itself goes to 125 C).
@@ -80,6 +85,10 @@ class FaultSupervisor {
   // The model-based loop's verdict on the period's casing reading (its
   // surprise; 0 when the loop did not check one): the model's stuck check.
   void on_reading_check(double surprise, double now_s) noexcept;
+  // The active probe found the reading following neither edge.
+  void on_probe_failed() noexcept;
+  // How long the casing reading has not changed (0 without one).
+  double reading_unchanged_s(double now_s) const noexcept { return have_casing_ ? now_s - changed_at_s_ : 0.0; }
   // Whether the loop checks its readings so (the model-based loop does).
   void set_model_check(bool on) noexcept { model_check_ = on; }
   // Every PID period, before the command: the stale, stuck and stall checks.
@@ -95,6 +104,9 @@ class FaultSupervisor {
   double ambient_c() const noexcept;  // the last plausible ambient reading, NaN without one
 
  private:
+  // temp_stuck on the current casing reading (false: no reading, or already raised).
+  bool raise_stuck() noexcept;
+
   const FailSafeLimits& limits_;  // the Controller's, fixed for its life
   std::uint32_t flags_ = 0;
 

@@ -228,6 +228,10 @@ void write_records_csv(const std::vector<RecordRow>& rows, const std::string& pa
 // true temperature of the plant. RuntimeFailure on a write error.
 void write_board_record_csv(const std::vector<RecordRow>& rows, const std::string& path);
 
+// A SimulationSetup::on_record hook that freezes the casing sensor on its
+// reading (hal::SimTempFault::stuck) from the first row at or after at_s.
+std::function<void(hal::SimBoard&, const RecordRow&)> freeze_casing_sensor_at(double at_s);
+
 // Builds a lockstep SimBoard (plant starting at the profile's first ambient),
 // the Controller and the runner, runs the whole profile and summarises it.
 SimulationResult run_simulation(const SimulationSetup& setup, const model::ChamberProfile& profile,

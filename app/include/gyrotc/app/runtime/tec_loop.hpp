@@ -75,6 +75,10 @@ class TecLoop {
   // (control::ObserverLoop::reading_surprise); 0 with the PID, a programme,
   // or a period the loop did not run.
   double reading_surprise() const noexcept { return reading_surprise_; }
+  // Whether the model-based loop drove this period.
+  bool model_drove() const noexcept { return model_drove_; }
+  // An offset to the model-based loop's target from the next period on (the stuck probe's).
+  void set_target_offset_c(double offset_c) noexcept { target_offset_c_ = offset_c; }
 
  private:
   const TecCommand& drive(double current_a, bool saturated, double now_s) noexcept;
@@ -99,6 +103,8 @@ class TecLoop {
   double active_setpoint_c_;
   double last_tick_s_ = 0.0;
   double reading_surprise_ = 0.0;
+  bool model_drove_ = false;
+  double target_offset_c_ = 0.0;
   TecCommand command_;
 };
 
