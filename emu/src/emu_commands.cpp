@@ -190,6 +190,7 @@ void add_report_command(CLI::App& app) {
     auto within = std::make_shared<double>(INFINITY);
     auto resume = std::make_shared<double>(-1.0);
     auto from_event = std::make_shared<std::string>();
+    auto es_only = std::make_shared<bool>(false);
     CLI::App* sub = report->add_subcommand(
         "safe",
         "When, after the mark, was the TEC path safe (TEC DAC at the 0 A code and E/S low), and did it\n"
@@ -201,7 +202,10 @@ void add_report_command(CLI::App& app) {
     sub->add_option("--from-event", *from_event,
                     "KIND:DEVICE (e.g. fault:casing_sensor): count from the first such event after the mark "
                     "instead of the mark itself");
-    sub->callback([c, config, within, resume, from_event] {
+    sub->add_flag("--es-only", *es_only,
+                  "E/S low alone counts as safe (the TEC DAC refuses every frame, an SPI error on it, and keeps its "
+                  "last code)");
+    sub->callback([c, config, within, resume, from_event, es_only] {
       const app::DaemonConfig dc = app::load_daemon_config(*config);
       const auto events = read_event_log(c->log);
       double after = after_mark(events, c->mark, c->log);
@@ -223,12 +227,15 @@ void add_report_command(CLI::App& app) {
         std::snprintf(text, sizeof text, "%.2f s", *t - after);
         return text;
       };
-      bool pass = r.safe_s && *r.safe_s - after <= *within;
-      if (*resume >= 0.0) pass = pass && r.resumed_s && *r.resumed_s - *r.safe_s <= *resume;
-      std::printf("%s: TEC DAC at the 0 A code (%u) after %s (written by pid %d), E/S low after %s, both after %s; "
+      const std::optional<double> safe_s = *es_only ? r.es_low_s : r.safe_s;
+      const std::optional<double> resumed_s = *es_only ? r.es_resumed_s : r.resumed_s;
+      bool pass = safe_s && *safe_s - after <= *within;
+      if (*resume >= 0.0) pass = pass && resumed_s && *resumed_s - *safe_s <= *resume;
+      std::printf("%s: TEC DAC at the 0 A code (%u) after %s (written by pid %d), E/S low after %s, %s after %s; "
                   "driving again after %s\n",
                   pass ? "safe" : "not safe in time", zero, rel(r.tec_zero_s).c_str(), r.tec_zero_pid,
-                  rel(r.es_low_s).c_str(), rel(r.safe_s).c_str(), rel(r.resumed_s).c_str());
+                  rel(r.es_low_s).c_str(), *es_only ? "safe (E/S alone)" : "both", rel(safe_s).c_str(),
+                  rel(resumed_s).c_str());
       verdict(pass);
     });
   }

@@ -218,7 +218,9 @@ SafeResult find_safe(const std::vector<LogEvent>& events, unsigned zero_code, do
     }
     if (!r.es_low_s && es == false) r.es_low_s = at;
     if (!r.safe_s && code == zero_code && es == false) r.safe_s = at;
-    if (r.safe_s && !r.resumed_s && es == true && code && *code != zero_code) r.resumed_s = t_s;
+    const bool driving = es == true && code && *code != zero_code;
+    if (r.safe_s && !r.resumed_s && driving) r.resumed_s = t_s;
+    if (r.es_low_s && !r.es_resumed_s && driving) r.es_resumed_s = t_s;
   };
   bool checked_start = false;
   for (const LogEvent& e : events) {

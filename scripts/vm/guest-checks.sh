@@ -15,15 +15,19 @@
 #   probe; the identification experiment and tune (the unit's controller);
 #   the service started with it: READY, SCHED_FIFO, sandbox, watchdog,
 #   outputs, and the casing held; a quiet journal, `gyrotc status` as another
-#   user, a new setpoint by reload; sensor loss, OPA548 shutdown, DRDY stall;
-#   stop; a calibration record, fit, reload; the compensation against the
+#   user, a new setpoint by reload; every fault the emulator offers (each
+#   sensor fault kind on both DS18B20s, an SPI error on each device, DRDY
+#   stopped, the OPA548 shutdown); stop; a calibration record, fit, reload; the compensation against the
 #   record; kill -9 and SEGV; outputs refused; seccomp with kill.
 # Times in the emulator's event log and in the journal are CLOCK_MONOTONIC.
 set -u
 PLAN=(deb-install sysusers gpio-sim-module udev-gpiochip gpio-chip-lookup gpio-drdy-edge gpio-drdy-timeout
       gpio-drdy-conversions gpio-edge-queue gpio-discard gpio-es-output gpio-consumers safe-off-es
       hil-emulator hil-probe hil-tune start realtime sandbox watchdog outputs hil-settle
-      journal-quiet status reload-control hil-sensor-loss hil-opa548 hil-adc-stall hil-stop stop
+      journal-quiet status reload-control hil-sensor-loss hil-opa548 hil-adc-stall
+      hil-ambient-disconnect hil-ambient-crc hil-ambient-all-zero hil-ambient-low-resolution
+      hil-ambient-power-on-reset hil-ambient-stuck hil-casing-power-on-reset hil-spi-adc hil-spi-rate-dac
+      hil-casing-crc hil-casing-all-zero hil-casing-low-resolution hil-spi-tec-dac hil-casing-stuck hil-stop stop
       hil-calibration reload hil-compensation hil-crash-safe-off crash-restart output-refused seccomp-kill)
 echo "vm-test: plan ${PLAN[*]}"
 [ "${1:-}" = --plan ] && exit 0
@@ -184,7 +188,10 @@ fi
 # line). A CUSE node is not spidev's major, so the unit's DeviceAllow=char-spi
 # does not cover it: a drop-in names the nodes (docs/EMULATOR.md).
 HIL_CHECKS=(hil-emulator hil-probe hil-tune start realtime sandbox watchdog outputs hil-settle journal-quiet status
-            reload-control hil-sensor-loss hil-opa548 hil-adc-stall hil-stop stop hil-calibration reload
+            reload-control hil-sensor-loss hil-opa548 hil-adc-stall hil-ambient-disconnect hil-ambient-crc
+            hil-ambient-all-zero hil-ambient-low-resolution hil-ambient-power-on-reset hil-ambient-stuck
+            hil-casing-power-on-reset hil-spi-adc hil-spi-rate-dac hil-casing-crc hil-casing-all-zero
+            hil-casing-low-resolution hil-spi-tec-dac hil-casing-stuck hil-stop stop hil-calibration reload
             hil-compensation hil-crash-safe-off crash-restart output-refused seccomp-kill)
 modprobe cuse 2>/dev/null
 modprobe wire 2>/dev/null
@@ -473,6 +480,141 @@ if [ "$held_ok" -eq 0 ] && [ -n "$line" ] && [ -n "$cleared" ]; then
   pass hil-adc-stall "DRDY held high: journal '$line' (status: $timeouts); the TEC held on: $held; DRDY back: cleared"
 else
   fail hil-adc-stall "stalled: held '$held'; journal '${line:-no fault adc_stalled line}'; cleared: ${cleared:-no}" \
+    "$(unit_log "$c" | grep -v '^[0-9]' | tail -8)"
+fi
+
+# --- 7b. every other fault the emulator offers ----------------------------------
+# Each sensor fault kind on the casing and the ambient DS18B20, an SPI error on
+# each of the three devices, each with what must stop, what must go on, the
+# journal line, `gyrotc status`, and the recovery (docs/FAULTS.md's matrix).
+ambient_stale_s=25 ambient_every_s=11 stuck_s=30
+# The daemon's first status line, and the flags it reports now.
+status_line() { gyrotc status --config "$CONF" 2>&1 | head -1; }
+status_flags() {
+  gyrotc status --config "$CONF" --json 2>/dev/null |
+    awk '/"flag_names"/ { f = 1 } f { print } f && /\]/ { exit }' | grep -o '"[a-z_0-9]*"' | tr -d '"' |
+    grep -vx flag_names | tr '\n' ' '
+}
+status_has() { status_line | grep -qE "^fault ([a-z_0-9]+\+)*$1[:+]"; }
+cleared_in() { wait_for "$3" sh -c "journalctl -u gyrotc.service --after-cursor '$1' -q -o cat | grep -q 'fault $2 cleared'"; }
+
+# A fault the TEC path survives, from a settled start: FLAG raised (journal and
+# status) within WAIT s, the true casing within 0.3 C of 55 C meanwhile, FLAG
+# cleared once the fault is gone. No FLAG ("-"): nothing to tell, no fault
+# raised, and the casing held.
+held_fault() {
+  local check=$1 flag=$2 wait_s=$3 what=$4 on=$5 off=$6 c st="" held held_ok line="" cleared="" since
+  c=$(mark)
+  emu_mark "$check"
+  since=$SECONDS
+  emu $on >/dev/null
+  if [ "$flag" != - ]; then
+    wait_for "$wait_s" status_has "$flag" && st=$(status_line)
+  fi
+  sleep $((wait_s - (SECONDS - since) > 0 ? wait_s - (SECONDS - since) : 0))
+  held=$(report settle --after-mark "$check" --setpoint 55 --band 0.3 --hold "$wait_s")
+  held_ok=$?
+  [ "$flag" != - ] && line=$(fault_line "$c" "$flag")
+  emu $off >/dev/null
+  if [ "$flag" = - ]; then
+    line=$(unit_log "$c" | grep -m1 'fault [a-z_0-9]*:')
+    if [ "$held_ok" -eq 0 ] && [ -z "$line" ] && ! status_line | grep -q '^fault'; then
+      pass "$check" "$what: no fault to tell (journal and status quiet: '$(status_line)'); the TEC held on: $held"
+    else
+      fail "$check" "$what: held '$held'; journal '${line:-quiet}'; status '$(status_line)'" "$(unit_log "$c" | tail -8)"
+    fi
+    return
+  fi
+  cleared_in "$c" "$flag" 30 && cleared=yes
+  if [ "$held_ok" -eq 0 ] && [ -n "$line" ] && [ -n "$st" ] && [ -n "$cleared" ]; then
+    pass "$check" "$what: journal '$line'; status '$st'; the TEC held on: $held; fault gone: cleared after $((SECONDS - since)) s"
+  else
+    fail "$check" "$what: held '$held'; journal '${line:-no fault $flag line}'; status '${st:-never showed $flag}'; cleared: ${cleared:-no}" \
+      "$(unit_log "$c" | grep -v '^[0-9]' | tail -8)"
+  fi
+}
+
+# A fault that stops the TEC path: FLAG in the journal and the status, the TEC
+# safe within LIMIT s of the emulator's fault event (EVENT), the status
+# reporting 0 A and the rate flagged uncontrolled, the rate DAC still written
+# meanwhile; once the fault is gone FLAG cleared and the TEC driving again.
+# SAFE_OPT: --es-only where the TEC DAC itself is what failed.
+off_fault() {
+  local check=$1 flag=$2 limit_s=$3 what=$4 on=$5 off=$6 event=$7 safe_opt=${8:-} c st="" flags safe safe_ok rate rate_ok line
+  local resumed="" cleared=""
+  c=$(mark)
+  emu_mark "$check"
+  emu $on >/dev/null
+  wait_for $((limit_s + 4)) status_has "$flag" && st=$(status_line)
+  emu_mark "$check-off"
+  sleep 2
+  flags=$(status_flags)
+  safe=$(report safe --config "$CONF" --after-mark "$check" --from-event "$event" --within "$limit_s" $safe_opt)
+  safe_ok=$?
+  emu_mark "$check-rate"
+  rate=$(report rate --config "$CONF" --after-mark "$check-off" --until-mark "$check-rate")
+  rate_ok=$?
+  line=$(fault_line "$c" "$flag")
+  emu_mark "$check-restored"
+  emu $off >/dev/null
+  wait_for 30 sh -c "gyrotc-emu report safe --log $EMU_LOG --config $CONF --after-mark $check --from-event $event $safe_opt --resume-within 40 >/dev/null" &&
+    resumed=$(report safe --config "$CONF" --after-mark "$check" --from-event "$event" $safe_opt --resume-within 40)
+  cleared_in "$c" "$flag" 30 && cleared=yes
+  if [ "$safe_ok" -eq 0 ] && [ -n "$st" ] && grep -q 'TEC +0.00 A' <<<"$st" && grep -qw uncontrolled <<<"$flags" &&
+     [ "$rate_ok" -eq 0 ] && [ -n "$line" ] && [ -n "$resumed" ] && [ -n "$cleared" ]; then
+    pass "$check" "$what: ${safe%%;*} (limit $limit_s s); journal '$line'; status '$st' [$flags]; the rate DAC went on ($(grep -o '[0-9]* frames' <<<"$rate") in the next 2 s); fault gone: cleared, ${resumed##*; }"
+  else
+    fail "$check" "$what: $safe; status '${st:-never showed $flag}' [$flags]; rate: $rate; journal '${line:-no fault $flag line}'; resumed: ${resumed:-no}; cleared: ${cleared:-no}" \
+      "$(unit_log "$c" | grep -v '^[0-9]' | tail -8)"
+  fi
+}
+
+emu_mark faults-settle
+for _ in $(seq 1 24); do report settle --after-mark faults-settle --setpoint 55 --band 0.3 --hold 10 >/dev/null && break; sleep 5; done
+ambient_wait=$((ambient_stale_s + ambient_every_s + 2))
+held_fault hil-ambient-disconnect ambient_stale $ambient_wait "ambient DS18B20 unplugged" "fault ambient disconnect" "fault ambient none"
+held_fault hil-ambient-crc ambient_stale $ambient_wait "ambient DS18B20 failing every CRC" "fault ambient crc" "fault ambient none"
+held_fault hil-ambient-all-zero ambient_stale $ambient_wait "ambient DS18B20 all-zero scratchpad (bus held low)" "fault ambient all-zero" "fault ambient none"
+held_fault hil-ambient-low-resolution ambient_stale $ambient_wait "ambient DS18B20 at 9 bits" "fault ambient low-resolution" "fault ambient none"
+held_fault hil-ambient-power-on-reset - $((ambient_every_s + 4)) "ambient DS18B20 85 C power-on value once (rejected)" "fault ambient power-on-reset" "fault ambient none"
+held_fault hil-ambient-stuck - 20 "ambient DS18B20 frozen on its reading" "fault ambient stuck" "fault ambient none"
+held_fault hil-casing-power-on-reset temp_invalid 8 "casing DS18B20 85 C power-on value once (rejected, TEC current held)" "fault casing power-on-reset" "fault casing none"
+held_fault hil-spi-adc adc_stalled $((adc_stall + 2 * period + 1)) "ADS1251's SPI fails every transfer (EIO)" "fault spi-error adc on" "fault spi-error adc off"
+held_fault hil-spi-rate-dac rate_dac_failed $((2 * period + 2)) "rate DAC's SPI fails every transfer (EIO)" "fault spi-error rate_dac on" "fault spi-error rate_dac off"
+
+sensor_limit=$(((stale + 1) * period))
+off_fault hil-casing-crc temp_stale $sensor_limit "casing DS18B20 failing every CRC" "fault casing crc" "fault casing none" fault:casing_sensor
+off_fault hil-casing-all-zero temp_stale $sensor_limit "casing DS18B20 all-zero scratchpad (bus held low)" "fault casing all-zero" "fault casing none" fault:casing_sensor
+off_fault hil-casing-low-resolution temp_stale $sensor_limit "casing DS18B20 at 9 bits" "fault casing low-resolution" "fault casing none" fault:casing_sensor
+off_fault hil-spi-tec-dac tec_write_failed $((2 * period)) "TEC DAC's SPI fails every transfer (EIO)" "fault spi-error tec_dac on" "fault spi-error tec_dac off" fault:spi-error-tec_dac --es-only
+
+# A casing reading frozen while the loop must move the casing (a new setpoint,
+# 50 C): the installed PID drives at its limit and the reading does not follow,
+# temp_stuck after failsafe.stuck_s (30 s on this fast plant).
+c=$(mark)
+emu_mark casing-stuck
+emu fault casing stuck >/dev/null
+sed -i 's/^setpoint_c *=.*/setpoint_c = 50.0/' /etc/gyrotc/controller.toml
+systemctl reload gyrotc
+st=""
+wait_for $((stuck_s + 20)) status_has temp_stuck && st=$(status_line)
+truth=$(emu status | grep -o 'casing_c=[-0-9.]*')
+safe=$(report safe --config "$CONF" --after-mark casing-stuck --from-event fault:casing_sensor --within $((stuck_s + 15)))
+safe_ok=$?
+line=$(fault_line "$c" temp_stuck)
+emu_mark casing-stuck-restored
+emu fault casing none >/dev/null
+sed -i 's/^setpoint_c *=.*/setpoint_c = 55.0/' /etc/gyrotc/controller.toml
+systemctl reload gyrotc
+resumed=""
+wait_for 30 sh -c "gyrotc-emu report safe --log $EMU_LOG --config $CONF --after-mark casing-stuck --from-event fault:casing_sensor --resume-within 40 >/dev/null" &&
+  resumed=$(report safe --config "$CONF" --after-mark casing-stuck --from-event fault:casing_sensor --resume-within 40)
+cleared=""
+cleared_in "$c" temp_stuck 30 && cleared=yes
+if [ "$safe_ok" -eq 0 ] && [ -n "$st" ] && [ -n "$line" ] && [ -n "$resumed" ] && [ -n "$cleared" ]; then
+  pass hil-casing-stuck "casing DS18B20 frozen, setpoint 55 -> 50 C: ${safe%%;*} (limit stuck_s + 15 = $((stuck_s + 15)) s; the true ${truth:-casing_c=?} at the status); journal '$line'; status '$st'; unfrozen: cleared, ${resumed##*; }"
+else
+  fail hil-casing-stuck "frozen, setpoint 50 C: $safe; status '${st:-never showed temp_stuck}'; journal '${line:-no fault temp_stuck line}'; resumed: ${resumed:-no}; cleared: ${cleared:-no}" \
     "$(unit_log "$c" | grep -v '^[0-9]' | tail -8)"
 fi
 

@@ -219,6 +219,35 @@ void ObserverLoop::restart(bool keep_heat) noexcept {
   p_(h, h) = initial_heat_var();
 }
 
+void ObserverLoop::adopt(const LoopHandover& from) noexcept {
+  const HousingModel& m = design_->model;
+  const int n = m.state_count();
+  start(from.reading_c, from.ambient_reading_c);
+  const double casing_c = from.reading_c - m.network.casing_sensor.offset_c;
+  const double ambient_c = z_(ambient_index());
+  // At a fixed current the held temperature is affine in the heat (the
+  // network is linear in the temperatures, the Peltier term too): two steady
+  // states give the heat that holds casing_c.
+  stepper_.steady_state(xss_, HousingInput{from.current_a, ambient_c, 0.0});
+  const double at_zero_c = stepper_.controlled_c(xss_);
+  stepper_.steady_state(probe_, HousingInput{from.current_a, ambient_c, 1.0});
+  const double per_w = stepper_.controlled_c(probe_) - at_zero_c;
+  const double heat_w = std::fabs(per_w) > 1e-12 ? (casing_c - at_zero_c) / per_w : 0.0;
+  stepper_.steady_state(xss_, HousingInput{from.current_a, ambient_c, heat_w});
+  z_.head(n) = xss_;
+  z_(heat_index()) = heat_w;
+  posterior_ = z_;
+  holding_a_ = from.current_a;
+  last_current_a_ = from.current_a;
+  shadow_started_ = false;
+}
+
+LoopHandover ObserverLoop::handover() const noexcept {
+  const model::ThermalNetwork& net = design_->model.network;
+  return {controlled_estimate_c() + net.casing_sensor.offset_c,
+          posterior_(ambient_index()) + net.ambient_sensor.offset_c, last_current_a_};
+}
+
 void ObserverLoop::coast(double current_a) noexcept {
   if (!started_) return;
   posterior_ = z_;

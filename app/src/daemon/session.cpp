@@ -182,7 +182,7 @@ std::string run_session(const SessionOptions& options) {
   // the new one (Controller::compensator_in_use): it may be in a sample with
   // the old one when the reload swaps them.
   std::vector<std::unique_ptr<fit::Compensator>> compensators;
-  std::vector<std::unique_ptr<ControllerConfig>> reloads;  // each SIGHUP's controller, alive to the end
+  std::vector<std::unique_ptr<ControllerReload>> reloads;  // each SIGHUP's controller and loop, alive to the end
   CalibrationInUse calibration = load_calibration_in_use(config.calibration_file);
   const std::string calibration_text = describe(calibration);
   const std::string calibration_sha256 = calibration.sha256;
@@ -307,25 +307,30 @@ std::string run_session(const SessionOptions& options) {
         controller.set_compensator(*compensators.back());
         GYROTC_LOG_NOTICE("SIGHUP: calibration reloaded from %s", text.c_str());
         config.output.status_interval_s = plan.config.output.status_interval_s;
-        const ControllerConfig& running_controller = reloads.empty() ? config.controller : *reloads.back();
+        const ControllerConfig& running_controller = reloads.empty() ? config.controller : reloads.back()->config;
         if (experiment_runs) {
           GYROTC_LOG_NOTICE("SIGHUP: an experiment drives the TEC: [control] not applied");
-        } else if (!same_model_based_loop(running_controller, plan.config.controller)) {
-          // The loop's filter is built at the start, off the real-time thread.
-          GYROTC_LOG_WARNING("SIGHUP: control.controller_file changed the model-based loop (type = \"observer\") "
-                             "in %s: it takes a restart (systemctl restart gyrotc); [control] not applied, the "
-                             "running loop stays",
-                             config.source.c_str());
         } else {
-          // Kept alive: the loop thread reads it at its next PID period (Controller::request_reload).
-          reloads.push_back(std::make_unique<ControllerConfig>(plan.config.controller));
-          const ControllerConfig& c = *reloads.back();
-          controller.request_reload(c);
+          // Kept alive, with the new model-based loop built here: the loop
+          // thread takes it at its next PID period (Controller::request_reload).
+          const bool new_loop = !same_model_based_loop(running_controller, plan.config.controller);
+          reloads.push_back(std::make_unique<ControllerReload>(plan.config.controller, new_loop));
+          const ControllerConfig& c = reloads.back()->config;
+          controller.request_reload(*reloads.back());
           publisher.set_control(c.pid_enabled ? "pid" : "tec_off", current_limit_a(c));
-          GYROTC_LOG_NOTICE("SIGHUP: control reloaded (from the next PID period, bumpless): %s, setpoint %.2f C, "
-                            "Kp %g, TI %g s, TD %g s, period %g s, xi %g C, TEC %g .. %g A",
-                            c.pid_enabled ? "PID" : "TEC off", c.setpoint_c, c.pid.kp, c.pid.ti_s, c.pid.td_s,
-                            c.pid.period_s, c.pid.xi_c, c.pid.out_min, c.pid.out_max);
+          if (c.observer) {
+            GYROTC_LOG_NOTICE("SIGHUP: control reloaded (from the next PID period, bumpless): %s, setpoint %.2f C, "
+                              "model-based loop (%d states)%s, period %g s, TEC %g .. %g A",
+                              c.pid_enabled ? "on" : "TEC off", c.setpoint_c, c.observer->model.state_count(),
+                              new_loop ? ", a new model or design taking over from the running loop" : "",
+                              c.pid.period_s, c.pid.out_min, c.pid.out_max);
+          } else {
+            GYROTC_LOG_NOTICE("SIGHUP: control reloaded (from the next PID period, bumpless): %s, setpoint %.2f C, "
+                              "Kp %g, TI %g s, TD %g s, period %g s, xi %g C, TEC %g .. %g A%s",
+                              c.pid_enabled ? "PID" : "TEC off", c.setpoint_c, c.pid.kp, c.pid.ti_s, c.pid.td_s,
+                              c.pid.period_s, c.pid.xi_c, c.pid.out_min, c.pid.out_max,
+                              new_loop ? " (the PID taking over from the model-based loop)" : "");
+          }
         }
       } catch (const std::exception& e) {
         GYROTC_LOG_ERROR("SIGHUP: nothing reloaded, the running configuration stays: %s", e.what());

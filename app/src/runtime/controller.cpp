@@ -5,6 +5,7 @@
 #include <optional>
 #include <stdexcept>
 #include <string>
+#include <utility>
 
 namespace gyrotc::app {
 namespace {
@@ -99,20 +100,32 @@ void Controller::on_ambient_temperature(const hal::TemperatureReading& reading, 
   }
 }
 
-void Controller::apply_reload(const ControllerConfig& next) noexcept {
-  config_.setpoint_c = next.setpoint_c;
-  config_.pid = next.pid;
-  config_.pid_enabled = next.pid_enabled;
-  config_.feed_forward_a_per_c = next.feed_forward_a_per_c;
-  config_.feed_forward_lag_s = next.feed_forward_lag_s;
-  config_.setpoint_ramp_c_per_s = next.setpoint_ramp_c_per_s;
-  config_.rail = next.rail;
-  loop_.retune(next.pid);
+ControllerReload::ControllerReload(ControllerConfig next, bool changes_loop)
+    : config(std::move(next)), new_loop(changes_loop) {
+  if (new_loop && config.observer) observer.emplace(config.observer);
+}
+
+void Controller::apply_reload(ControllerReload& next) noexcept {
+  const ControllerConfig& c = next.config;
+  config_.setpoint_c = c.setpoint_c;
+  config_.pid = c.pid;
+  config_.pid_enabled = c.pid_enabled;
+  config_.feed_forward_a_per_c = c.feed_forward_a_per_c;
+  config_.feed_forward_lag_s = c.feed_forward_lag_s;
+  config_.setpoint_ramp_c_per_s = c.setpoint_ramp_c_per_s;
+  config_.rail = c.rail;
+  loop_.retune(c.pid);
+  if (next.new_loop) {
+    // The old design stays alive in the reload (or the start) that brought it.
+    config_.observer = c.observer;
+    supervisor_.set_model_check(config_.observer != nullptr);
+    loop_.switch_observer(next.observer ? &*next.observer : nullptr);
+  }
   applied_.store(&next, std::memory_order_release);
 }
 
 TecCommand Controller::on_pid_tick(double now_s) noexcept {
-  if (const ControllerConfig* next = pending_.exchange(nullptr, std::memory_order_acq_rel)) apply_reload(*next);
+  if (ControllerReload* next = pending_.exchange(nullptr, std::memory_order_acq_rel)) apply_reload(*next);
   supervisor_.on_tick(now_s, config_.pid.period_s);
   const TecCommand& command = decide(now_s);
   // The stuck check's evidence: what the TEC drove this period.
@@ -157,6 +170,11 @@ const TecCommand& Controller::decide(double now_s) noexcept {
 
 void Controller::on_tec_applied(bool ok, double now_s) noexcept {
   supervisor_.on_tec_write(ok);
+  if (!(ok && loop_.last_command().enable)) {
+    tec_enabled_since_s_ = std::numeric_limits<double>::quiet_NaN();
+  } else if (std::isnan(tec_enabled_since_s_)) {
+    tec_enabled_since_s_ = now_s;
+  }
   if (!ok && loop_.last_command().enable) {
     loop_.off(now_s, true);
     supervisor_.record_command(0.0);
@@ -180,7 +198,7 @@ TecCommand run_pid_tick(Controller& controller, hal::TecDriver& tec, double now_
 }
 
 void run_thermal_poll(Controller& controller, hal::TecDriver& tec, double now_s) noexcept {
-  if (!controller.tec_driving()) return;
+  if (!controller.tec_driving() || !(now_s - controller.tec_enabled_since_s() >= kEsSenseSettleS)) return;
   const auto thermal = tec.thermal_status();
   if (thermal.ok() && thermal.value() != hal::ThermalStatus::shutdown) return;
   controller.on_opa548_thermal(true, now_s);

@@ -11,7 +11,23 @@ namespace gyrotc::app {
 
 TecLoop::TecLoop(const ControllerConfig& config)
     : config_(config), pid_(config.pid), flags_(kFlagTecOff), active_setpoint_c_(config.setpoint_c) {
-  if (config.observer) observer_.emplace(config.observer);
+  if (config.observer) observer_ = &own_observer_.emplace(config.observer);
+}
+
+void TecLoop::switch_observer(control::ObserverLoop* next) noexcept {
+  if (next == observer_) return;
+  const bool driving = pid_running_ && command_.enable && program_ == nullptr;
+  if (driving && next != nullptr) {
+    next->adopt(observer_ != nullptr && observer_->started()
+                    ? observer_->handover()
+                    : control::LoopHandover{last_casing_c_, last_ambient_c_, command_.current_a});
+  } else if (driving) {
+    // To the PID: its integral part starts at the current applied (less the
+    // feed-forward it adds), its proportional part on the error then.
+    pid_.reset(command_.current_a -
+               control::feed_forward_a(config_.feed_forward_a_per_c, config_.setpoint_c, ff_ambient_.value_c()));
+  }
+  observer_ = next;
 }
 
 const TecCommand& TecLoop::off(double now_s, bool resume) noexcept {
@@ -54,6 +70,7 @@ const TecCommand& TecLoop::drive(double current_a, bool saturated, double now_s)
 
 const TecCommand& TecLoop::pid_tick(double now_s, double casing_c, double ambient_c, double casing_age_s) noexcept {
   const double dt_s = pid_running_ ? now_s - last_tick_s_ : 0.0;
+  last_casing_c_ = casing_c;
   if (!pid_running_) {
     // After a sensor fault (stale) or a dead ADC the PID restarts with the
     // integral it had (what it learnt of the load), its proportional part on
@@ -131,6 +148,7 @@ control::CurrentRange TecLoop::applied_range(double casing_c, double ambient_c) 
 void TecLoop::on_ambient(double ambient_c, double since_s) noexcept {
   ff_ambient_.update(ambient_c, since_s, config_.feed_forward_lag_s);
   new_ambient_c_ = ambient_c;
+  last_ambient_c_ = ambient_c;
 }
 
 void TecLoop::on_gyro_sample(double gyro_mv) noexcept {

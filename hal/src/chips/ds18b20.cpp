@@ -157,12 +157,22 @@ TemperatureReading Ds18b20::do_read() {
     }
   }
   const TemperatureReading reading = evaluate(std::string_view(buffer.data(), *n), start_s);
-  if (options_.source == W1File::temperature && reading.valid && !resolution_checked_) {
+  if (options_.source != W1File::temperature) return reading;
+  // A part that was reset (the 85 C power-on value) has reloaded its
+  // resolution from its EEPROM.
+  if (reading.fault == TempFault::power_on_value) resolution_checked_ = false;
+  // An all-zero scratchpad (the bus held low) passes w1_therm's CRC and reads
+  // 0 millidegrees, which is also a temperature: its configuration byte (zero:
+  // 9 bits) tells them apart.
+  const bool zero = reading.valid && reading.temp_c == 0.0;
+  if (reading.valid && (!resolution_checked_ || zero)) {
     // The temperature file has no scratchpad: ask w1_therm (Linux >= 5.10;
     // without the file there is nothing to check).
     if (const Result<std::size_t> r = device_.read(W1File::resolution, buffer)) {
       const Result<std::int32_t> bits = parse_temperature_file(std::string_view(buffer.data(), *r));  // one integer
-      if (bits && *bits != kResolutionBits) return failed(TempFault::resolution, start_s, reading.temp_c);
+      if (bits && *bits != kResolutionBits) {
+        return failed(zero ? TempFault::all_zero : TempFault::resolution, start_s, reading.temp_c);
+      }
     }
     resolution_checked_ = true;
   }

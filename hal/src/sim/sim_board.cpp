@@ -41,7 +41,7 @@ SimBoard::SimBoard(const model::PlantParams& params, std::uint64_t seed, const S
       adc_chip_(*this, clock_, adc_chip_config(options, seed)),
       rate_dac_chip_("sim:ad5060-rate", options.rate_dac.vref_v),
       tec_dac_chip_("sim:ad5060-tec", params.dac_vref_v, this),
-      opa548_chip_(this),
+      opa548_chip_(this, &clock_, options.opa548_sense_delay_s),
       casing_chip_(kCasingId, plant_.sensor_c(), options.realtime ? &sensor_sleep_clock_ : nullptr),
       ambient_chip_(kAmbientId, plant_.ambient_sensor_c(), options.realtime ? &sensor_sleep_clock_ : nullptr),
       adc_(adc_chip_.spi(), adc_chip_.drdy(), clock_, options.adc),

@@ -1,4 +1,6 @@
+#include <algorithm>
 #include <cmath>
+#include <memory>
 #include <stdexcept>
 
 #include "gyrotc/algorithms/control/housing_model.hpp"
@@ -123,4 +125,71 @@ TEST_CASE("the observer loop's filter follows the housing through a stop instead
   loop.tick(reading(), 0.0, 16.0, 55.0, -1.0, 1.0);
   INFO("true sink " << x(0) << " C, estimated " << loop.node_estimate_c(0) << " C; casing " << x(1));
   CHECK(loop.node_estimate_c(0) == Approx(x(0)).margin(0.2));
+}
+
+namespace {
+
+// two_nodes() holding 55 C in a 16 C room under its own loop for an hour:
+// the loop, and the true state it holds.
+struct HeldHousing {
+  HousingModel model = two_nodes();
+  std::shared_ptr<const ObserverLoopDesign> design =
+      std::make_shared<const ObserverLoopDesign>(design_observer_loop(model, ObserverLoopSpec{}));
+  ObserverLoop loop{design};
+  HousingStepper truth{model, 0.1};
+  Eigen::VectorXd x = Eigen::VectorXd::Constant(2, 16.0);
+  double current_a = 0.0;
+
+  double reading() const { return std::nearbyint(truth.reading_c(x) * 16.0) / 16.0; }
+  HeldHousing() {
+    for (int k = 0; k < 3600; ++k) step(loop, k);
+  }
+  void step(ObserverLoop& l, int k) {
+    current_a = l.tick(reading(), 0.0, k % 10 == 0 ? 16.0 : std::nan(""), 55.0, -1.0, 1.0);
+    truth.advance(x, 1.0, HousingInput{current_a, 16.0, 0.0});
+  }
+};
+
+// Another model of the same housing, 30 % off in the sink's loss and the
+// TEC's conductance (what a unit's own record may well give).
+HousingModel thirty_percent_off(HousingModel m) {
+  m.network.links[0].w_per_k *= 1.3;
+  m.conductance_w_per_k *= 0.7;
+  return m;
+}
+
+}  // namespace
+
+TEST_CASE("a loop on another model that adopts a holding loop's handover goes on at the current applied") {
+  HeldHousing h;
+  REQUIRE(h.x(1) == Approx(55.0).margin(0.1));
+  const HousingModel other = thirty_percent_off(h.model);
+  ObserverLoop next(std::make_shared<const ObserverLoopDesign>(design_observer_loop(other, ObserverLoopSpec{})));
+  const double before_a = h.current_a;
+  next.adopt(h.loop.handover());
+  const double first_a = next.tick(h.reading(), 0.0, std::nan(""), 55.0, -1.0, 1.0);
+  INFO("before " << before_a << " A, first period on the new model " << first_a << " A");
+  CHECK(std::fabs(first_a - before_a) < 0.02);
+  CHECK_FALSE(next.saturated());
+}
+
+TEST_CASE("a loop on another model started from the readings alone kicks the current (what adopt avoids)") {
+  HeldHousing h;
+  const HousingModel other = thirty_percent_off(h.model);
+  ObserverLoop fresh(std::make_shared<const ObserverLoopDesign>(design_observer_loop(other, ObserverLoopSpec{})));
+  const double first_a = fresh.tick(h.reading(), 0.0, 16.0, 55.0, -1.0, 1.0);
+  CHECK(std::fabs(first_a - h.current_a) > 0.05);
+}
+
+TEST_CASE("a loop that adopts a handover holds the housing on from there") {
+  HeldHousing h;
+  const HousingModel other = thirty_percent_off(h.model);
+  ObserverLoop next(std::make_shared<const ObserverLoopDesign>(design_observer_loop(other, ObserverLoopSpec{})));
+  next.adopt(h.loop.handover());
+  double worst_c = 0.0;
+  for (int k = 0; k < 1800; ++k) {
+    h.step(next, k);
+    worst_c = std::max(worst_c, std::fabs(h.x(1) - 55.0));
+  }
+  CHECK(worst_c < 0.1);
 }

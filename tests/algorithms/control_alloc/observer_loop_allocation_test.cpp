@@ -77,3 +77,23 @@ TEST_CASE("the model-based loop's period allocates nothing: update, target, feed
   CHECK(mallocs_over_ticks(model::PlantParams{}) == 0);
 #endif
 }
+
+TEST_CASE("a loop built beforehand adopts a running loop's handover and ticks without allocating") {
+  auto design = std::make_shared<const control::ObserverLoopDesign>(
+      control::design_observer_loop(model::housing_model(model::PlantParams{}), control::ObserverLoopSpec{}));
+  control::ObserverLoop running(design);
+  control::ObserverLoop next(design);  // a reload's loop, built off the real-time thread
+  running.tick(54.0, 1.0, 16.0, 55.0, -1.0, 1.0);
+#if GYROTC_COUNTS_MALLOC
+  g_mallocs = 0;
+  g_counting = true;
+#endif
+  next.adopt(running.handover());
+  for (int k = 0; k < 20; ++k) next.tick(54.0, 1.0, (k % 10) == 0 ? 16.0 : std::nan(""), 55.0, -1.0, 1.0);
+#if GYROTC_COUNTS_MALLOC
+  g_counting = false;
+  CHECK(g_mallocs == 0);
+#else
+  WARN("skipped: AddressSanitizer owns malloc, the count is taken in the builds without it");
+#endif
+}

@@ -647,10 +647,11 @@ TEST_CASE("a reload's new gains take over at the next PID period without a step 
   Harness h;
   h.run_for(20.0, 54.8, true, false);  // a steady -0.2 C hold, the integral still within the limits
   const double before = h.controller.last_command().current_a;
-  ControllerConfig next = h.config;
-  next.pid = gyrotc::control::PidParams::from_gains(0.96, 0.64, 20.0, 2.0);
-  next.pid.out_min = h.config.pid.out_min;
-  next.pid.out_max = h.config.pid.out_max;
+  ControllerConfig gains = h.config;
+  gains.pid = gyrotc::control::PidParams::from_gains(0.96, 0.64, 20.0, 2.0);
+  gains.pid.out_min = h.config.pid.out_min;
+  gains.pid.out_max = h.config.pid.out_max;
+  ControllerReload next(gains, false);
   h.controller.request_reload(next);
   CHECK(h.controller.reload_applied() == nullptr);  // not before the loop's next period
   const TecCommand after = h.run_for(2.0, 54.8, true, false);
@@ -666,8 +667,9 @@ TEST_CASE("a reloaded setpoint ramps from the one in use at the configured rate"
   Harness h(c);
   h.run_for(400.0, 55.0);
   REQUIRE(h.controller.active_setpoint_c() == Approx(55.0));
-  ControllerConfig next = c;
-  next.setpoint_c = 50.0;
+  ControllerConfig lower = c;
+  lower.setpoint_c = 50.0;
+  ControllerReload next(lower, false);
   h.controller.request_reload(next);
   h.run_for(100.0, 55.0);
   CHECK(h.controller.config().setpoint_c == 50.0);
@@ -677,8 +679,9 @@ TEST_CASE("a reloaded setpoint ramps from the one in use at the configured rate"
 TEST_CASE("a reload that turns the PID off turns the TEC off at the next period") {
   Harness h;
   REQUIRE(h.run_for(20.0, 40.0).enable);
-  ControllerConfig next = h.config;
-  next.pid_enabled = false;
+  ControllerConfig off = h.config;
+  off.pid_enabled = false;
+  ControllerReload next(off, false);
   h.controller.request_reload(next);
   const TecCommand cmd = h.run_for(2.0, 40.0);
   CHECK_FALSE(cmd.enable);

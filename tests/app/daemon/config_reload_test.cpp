@@ -122,7 +122,7 @@ TEST_CASE("a reload of a broken file or calibration is refused naming the file, 
   CHECK_THROWS_AS(plan_reload(options, started), InputError);
 }
 
-TEST_CASE("a reload that changes the model-based loop, or the loop's type, is one that takes a restart") {
+TEST_CASE("a reload that changes the model-based loop, or the loop's type, is one that brings a new loop") {
   ControllerFile file = gyrotc::test::observer_controller_file();
   const ControllerConfig pid;
   const ControllerConfig observer = apply_controller_file(file, pid, "a.toml");

@@ -10,6 +10,8 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <regex>
+#include <sstream>
 #include <string>
 #include <string_view>
 #include <thread>
@@ -20,11 +22,13 @@
 
 #include "gyrotc/algorithms/fit/compensator.hpp"
 #include "gyrotc/app/daemon/config.hpp"
+#include "gyrotc/app/formats/controller_file.hpp"
 #include "gyrotc/app/runtime/realtime_runner.hpp"
 #include "gyrotc/app/support/errors.hpp"
 #include "gyrotc/hal/chips/ads1251.hpp"
 #include "gyrotc_catch.hpp"
 #include "gyrotc_process.hpp"
+#include "observer_controller_file.hpp"
 #include "test_paths.hpp"
 
 using namespace gyrotc;
@@ -264,6 +268,53 @@ TEST_CASE("SIGHUP applies a new setpoint and gains, and names a changed key that
   CHECK(wait_for_text(err, "SIGHUP: sim.seed changed in " + config + ": it takes a restart"));
   kill(pid, SIGTERM);
   CHECK(exit_status(pid) == 0);
+}
+
+TEST_CASE("SIGHUP with another model-based loop's controller file hands the running loop over to it") {
+  const std::string dir = gyrotc::test::scratch_dir();
+  const std::string config = dir + "/daemon_sighup_observer.toml";
+  const std::string controller = dir + "/daemon_sighup_observer_controller.toml";
+  const std::string err = dir + "/daemon_sighup_observer.err";
+  const auto write_controller = [&](double setpoint_c) {
+    gyrotc::app::ControllerFile file = gyrotc::test::observer_controller_file();
+    file.setpoint_c = setpoint_c;
+    std::ofstream(controller) << gyrotc::app::format_controller_file(file);
+  };
+  write_controller(55.0);
+  {
+    std::string text = gyrotc::test::sim_config_text("daemon_sighup_observer");
+    const auto set = [&text](const std::string& from, const std::string& to) {
+      text.replace(text.find(from), from.size(), to);
+    };
+    set("file = \"calibration.toml\"", "file = \"" + gyrotc::test::config_file("calibration.toml") + "\"");
+    set("stream = \"stdout\"", "stream = \"none\"");
+    // The controller file in place of [control]'s own setpoint, gains, period and options.
+    static const std::regex replaced(
+        "(setpoint_c|kp|ki|kd|period_s|xi_c|feed_forward_a_per_c|feed_forward_lag_s|setpoint_ramp_c_per_s) *=.*");
+    std::string kept;
+    std::string section;
+    std::istringstream lines(text);
+    for (std::string line; std::getline(lines, line);) {
+      if (line.rfind('[', 0) == 0) section = line;
+      if (section == "[control]" && std::regex_match(line, replaced)) continue;
+      kept += line + "\n";
+      if (line == "[control]") kept += "controller_file = \"" + controller + "\"\n";
+    }
+    std::ofstream(config) << kept;
+  }
+  const pid_t pid = spawn_gyrotc({"run", "--config", config, "--allow-non-rt", "--duration", "60"}, err);
+  REQUIRE(pid > 0);
+  const bool running = wait_for_text(err, "running on");
+  INFO(read_text(err));
+  REQUIRE(running);
+  write_controller(50.0);  // another setpoint: another design, another loop
+  kill(pid, SIGHUP);
+  CHECK(wait_for_text(err, "SIGHUP: control reloaded (from the next PID period, bumpless): on, setpoint 50.00 C, "
+                           "model-based loop"));
+  CHECK(wait_for_text(err, "a new model or design taking over from the running loop"));
+  kill(pid, SIGTERM);
+  CHECK(exit_status(pid) == 0);
+  CHECK(read_text(err).find("takes a restart") == std::string::npos);
 }
 
 TEST_CASE("SIGHUP moves the outputs: a stream turned on, the record and the status file to new paths") {

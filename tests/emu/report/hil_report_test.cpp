@@ -103,6 +103,17 @@ TEST_CASE("report safe: the TEC path is safe when the DAC is at the 0 A code and
   CHECK_FALSE(emu::find_safe(std::vector<emu::LogEvent>(e.begin(), e.begin() + 4), 32768, 2.0).safe_s);
 }
 
+TEST_CASE("report safe: with a TEC DAC that refuses frames, E/S low is the safe state and E/S high again the resume") {
+  // The DAC keeps its last code (40000) through the SPI error; the daemon writes it again before enabling.
+  const std::vector<emu::LogEvent> e{tec(1.0, 40000), es(1.0, true), es(4.0, false), es(9.0, true), tec(9.0, 41000)};
+  const emu::SafeResult r = emu::find_safe(e, 32768, 2.0);
+  CHECK_FALSE(r.safe_s);  // never both
+  REQUIRE(r.es_low_s);
+  CHECK(*r.es_low_s == Approx(4.0));
+  REQUIRE(r.es_resumed_s);
+  CHECK(*r.es_resumed_s == Approx(9.0));
+}
+
 TEST_CASE("report: the event log's last line still being written is left out, and a malformed line is named") {
   const std::string path = test::scratch_dir() + "/events.csv";
   std::ofstream(path) << "t_s,kind,device,value,detail\n1.0,mark,,start,\n2.0,plant,casing_c,25.0,x\n3.0,pla";

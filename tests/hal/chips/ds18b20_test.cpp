@@ -190,3 +190,28 @@ TEST_CASE("an injected stuck value freezes the reading and trips the stuck check
   clock.sleep_until(11.0);
   CHECK(sensor.read().fault == TempFault::stuck);
 }
+
+TEST_CASE("with the temperature file an all-zero scratchpad is not taken for 0 C") {
+  VirtualClock clock;
+  SimDs18b20 chip{"28-000000000002", 30.0};
+  Ds18b20 sensor{chip, clock, {.source = W1File::temperature}};
+  REQUIRE(sensor.read().valid);
+  chip.set_fault(SimTempFault::all_zero);
+  CHECK(sensor.read().fault == TempFault::all_zero);
+  chip.set_fault(SimTempFault::none);
+  chip.set_temperature_c(0.0);  // a true 0 C from a 12-bit part is a temperature
+  const auto cold = sensor.read();
+  CHECK(cold.valid);
+  CHECK(cold.temp_c == 0.0);
+}
+
+TEST_CASE("with the temperature file a part reset to a lower resolution is refused after its power-on value") {
+  VirtualClock clock;
+  SimDs18b20 chip{"28-000000000003", 30.0};
+  Ds18b20 sensor{chip, clock, {.source = W1File::temperature}};
+  REQUIRE(sensor.read().valid);
+  chip.set_fault(SimTempFault::power_on_reset);
+  CHECK(sensor.read().fault == TempFault::power_on_value);
+  chip.set_fault(SimTempFault::low_resolution);  // its EEPROM held 9 bits
+  CHECK(sensor.read().fault == TempFault::resolution);
+}

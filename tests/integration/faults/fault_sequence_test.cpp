@@ -14,6 +14,7 @@
 #include "gyrotc/algorithms/fit/bias_model.hpp"
 #include "gyrotc/app/runtime/lockstep_runner.hpp"
 #include "gyrotc_catch.hpp"
+#include "lockstep_board.hpp"
 
 using namespace gyrotc;
 using app::ControllerMode;
@@ -26,15 +27,21 @@ class SequenceRig {
  public:
   explicit SequenceRig(ControllerMode mode, double ambient_c = 16.0)
       : controller_config_(app::controller_preset(mode, plant_)),
-        board_(plant_at(plant_, ambient_c), 1, board_options(plant_)),
+        board_(test::plant_at(plant_, ambient_c), 1, test::lockstep_board_options(plant_)),
         compensator_(fit::BiasModel::paper_reference()),
         controller_(controller_config_, compensator_),
         profile_({{"hold", 0.0, 1e6, ambient_c, ambient_c}}),
         runner_(board_, controller_, profile_) {
     runner_.on_record([this](const app::RecordRow& row) {
       rows_.push_back(row);
-      // The current the status and the rows report, against the stage.
-      if (controller_.reported_tec_a() != 0.0 && !board_.opa548_chip().output_enabled()) ++phantom_current_rows_;
+      // The current the status and the rows report, against the stage, once
+      // E/S can tell: a row in the same instant as the period that enabled
+      // the stage (the sense still settling, app::kEsSenseSettleS) reports
+      // the command whether or not the OPA548 was already in shutdown.
+      const bool sense_settled = row.time_s - controller_.tec_enabled_since_s() >= app::kEsSenseSettleS;
+      if (controller_.reported_tec_a() != 0.0 && !board_.opa548_chip().output_enabled() && sense_settled) {
+        ++phantom_current_rows_;
+      }
     });
   }
 
@@ -62,19 +69,6 @@ class SequenceRig {
   int phantom_current_rows() const { return phantom_current_rows_; }
 
  private:
-  static model::PlantParams plant_at(model::PlantParams p, double ambient_c) {
-    p.initial_temp_c = ambient_c;
-    return p;
-  }
-  static hal::SimBoardOptions board_options(const model::PlantParams& p) {
-    hal::SimBoardOptions o;
-    o.realtime = false;
-    o.thermal_step_s = p.max_thermal_step_s;
-    o.adc.fclk_hz = 20.0 * 384.0;
-    o.tec_current_limit_a = p.current_limit_a;
-    return o;
-  }
-
   model::PlantParams plant_;
   app::ControllerConfig controller_config_;
   hal::SimBoard board_;

@@ -79,6 +79,9 @@ struct SafeResult {
   std::optional<double> es_low_s;
   std::optional<double> safe_s;      // both
   std::optional<double> resumed_s;
+  // E/S alone: a TEC DAC that refuses every frame (an SPI error) keeps its last
+  // code, and the disabled OPA548 is what makes the path safe.
+  std::optional<double> es_resumed_s;  // E/S high again after es_low_s, the DAC off the 0 A code
 };
 SafeResult find_safe(const std::vector<LogEvent>& events, unsigned zero_code, double after_s);
 

@@ -98,6 +98,14 @@ double holding_current_a(const HousingModel& model, double setpoint_c, double am
 // setpoint at the design ambient, or a Riccati equation has no solution.
 ObserverLoopDesign design_observer_loop(const HousingModel& model, const ObserverLoopSpec& spec);
 
+// Where a running loop leaves the housing, on the sensors' scales (their
+// offsets in): what another loop takes over from at a reload.
+struct LoopHandover {
+  double reading_c = 0.0;          // the casing reading, or the loop's unrounded estimate of it
+  double ambient_reading_c = 0.0;  // NaN when there is no ambient reading
+  double current_a = 0.0;          // the current applied
+};
+
 // The loop at run time: tick() allocates nothing once constructed (the
 // real-time thread runs it).
 class ObserverLoop {
@@ -110,6 +118,15 @@ class ObserverLoop {
   // of the load). The first tick ever starts the filter from the readings
   // (every node at the casing's, the ambient at its sensor's).
   void restart(bool keep_heat) noexcept;
+  // Takes over from another loop (a reload that changes the model, without a
+  // kick): the filter starts at rest where the other left the housing, every
+  // node at the steady state of the current it applied, with the unknown
+  // heat that makes that steady state read what it read. Holding there, the
+  // first period's current is the one applied, and the filter learns the
+  // rest from the readings as after any start.
+  void adopt(const LoopHandover& from) noexcept;
+  // What another loop takes over from this one (after a tick).
+  LoopHandover handover() const noexcept;
   // A period without a tick (the loop off or holding): the filter predicts
   // with the current the TEC had, without a reading.
   void coast(double current_a) noexcept;

@@ -26,10 +26,9 @@ std::vector<std::string> changed_keys(const toml::table& before, const toml::tab
 bool reloadable_key(std::string_view key);
 
 // Whether two controllers run the same model-based loop, or neither runs
-// one. A reload applies the PID's settings on the real-time thread at its
-// next period; the model-based loop's filter is built when the daemon starts,
-// so a reload that changes it (or the loop's type) leaves [control] as it
-// runs and says that it takes a restart.
+// one. A reload that changes it (or the loop's type) brings a new loop,
+// built off the real-time thread, that takes over from the running one
+// (ControllerReload); otherwise the running loop goes on with its filter.
 bool same_model_based_loop(const ControllerConfig& a, const ControllerConfig& b);
 
 struct ReloadPlan {

@@ -4,6 +4,7 @@
 #include <cstdint>
 #include <limits>
 #include <memory>
+#include <optional>
 
 #include "gyrotc/algorithms/calibrate/die_temperature.hpp"
 #include "gyrotc/algorithms/control/observer_loop.hpp"
@@ -51,8 +52,8 @@ struct ControllerConfig {
   RailLimit rail;
   // The model-based loop (control/observer_loop.hpp) in the PID's place,
   // at pid.period_s = its design's period; the PID's limits still bound the
-  // current. Not changed by a reload (a reload that would change it is not
-  // applied: daemon/config_reload's same_model_based_loop).
+  // current. A reload that changes it brings the new loop with it
+  // (ControllerReload).
   std::shared_ptr<const control::ObserverLoopDesign> observer;
   // Rate output (AD5060 #1): mid-scale = 0 deg/s.
   double rate_dac_vref_v = 5.0;
@@ -61,6 +62,18 @@ struct ControllerConfig {
 
 // Throws std::invalid_argument naming the field.
 void validate(const ControllerConfig& config);
+
+// A configuration reload (Controller::request_reload): the controller to run
+// and, when it changes the model-based loop or the loop's type (new_loop),
+// the new loop, built here, off the real-time thread; it takes over at the
+// next period from where the running loop leaves the housing, without a kick
+// (TecLoop::switch_observer).
+struct ControllerReload {
+  ControllerReload(ControllerConfig next, bool changes_loop);
+  ControllerConfig config;
+  bool new_loop = false;
+  std::optional<control::ObserverLoop> observer;  // with new_loop and config.observer
+};
 
 class Controller {
  public:
@@ -96,6 +109,9 @@ class Controller {
   // (last_command() reports 0 A, disabled) and tries again next period,
   // restarting the PID with its integral once the path takes a command.
   void on_tec_applied(bool ok, double now_s) noexcept;
+  // Since when the stage has been enabled (the first applied command of the
+  // current drive); NaN while it is not driven.
+  double tec_enabled_since_s() const noexcept { return tec_enabled_since_s_; }
   // Whether the rate DAC took the last sample's output (run_sample_tick).
   void on_rate_output(bool ok) noexcept { rate_.on_rate_dac_write(ok); }
   // From the next PID period on, the programme sets the TEC current instead of
@@ -115,14 +131,15 @@ class Controller {
   const fit::Compensator* compensator_in_use() const noexcept { return rate_.compensator_in_use(); }
 
   // Configuration reload (SIGHUP): from the next PID period on, the setpoint,
-  // the PID's gains, period, band and limits, pid on/off, feed-forward, ramp
-  // and rail of `next`, bumplessly (IncrementalPid::retune; a new setpoint
-  // ramps from the one in use when setpoint_ramp_c_per_s > 0). The fail-safe
-  // limits and the rate output stay. `next` is not copied here: it must stay
-  // alive until reload_applied() returns it. Any thread.
-  void request_reload(const ControllerConfig& next) noexcept { pending_.store(&next, std::memory_order_release); }
+  // the PID's gains, period, band and limits, pid on/off, feed-forward, ramp,
+  // rail and model-based loop of `next`, bumplessly (IncrementalPid::retune;
+  // a new loop adopts the running one's handover; a new setpoint ramps from
+  // the one in use when setpoint_ramp_c_per_s > 0). The fail-safe limits and
+  // the rate output stay. `next` is not copied here: it must stay alive, and
+  // its loop with it, to the end of the run. Any thread.
+  void request_reload(ControllerReload& next) noexcept { pending_.store(&next, std::memory_order_release); }
   // The reload last applied (nullptr before any). Any thread.
-  const ControllerConfig* reload_applied() const noexcept { return applied_.load(std::memory_order_acquire); }
+  const ControllerReload* reload_applied() const noexcept { return applied_.load(std::memory_order_acquire); }
 
   std::uint32_t flags() const noexcept {
     const std::uint32_t f = rate_.flags() | supervisor_.flags() | loop_.flags();
@@ -151,13 +168,14 @@ class Controller {
   const ControllerConfig& config() const noexcept { return config_; }
 
  private:
-  void apply_reload(const ControllerConfig& next) noexcept;
+  void apply_reload(ControllerReload& next) noexcept;
   // The loop's command for the period, as the supervisor's flags allow.
   const TecCommand& decide(double now_s) noexcept;
 
   ControllerConfig config_;
-  std::atomic<const ControllerConfig*> pending_{nullptr};
-  std::atomic<const ControllerConfig*> applied_{nullptr};
+  std::atomic<ControllerReload*> pending_{nullptr};
+  std::atomic<const ControllerReload*> applied_{nullptr};
+  double tec_enabled_since_s_ = std::numeric_limits<double>::quiet_NaN();
   RateOutput rate_;
   FaultSupervisor supervisor_;  // reads config_.limits
   TecLoop loop_;                // reads config_
@@ -177,8 +195,15 @@ TecCommand run_pid_tick(Controller& controller, hal::TecDriver& tec, double now_
 // Between PID periods, as both runners do it before each row: while the TEC
 // is driven, an OPA548 thermal shutdown on E/S (or an E/S that cannot be
 // read) is taken at once: flagged, the stage disabled, reported at 0 A; the
-// next period turns the loop off for the cool-down.
+// next period turns the loop off for the cool-down. Not within
+// kEsSenseSettleS of the enable: the sense line still shows the pin as it
+// was while disabled (low), which would be taken for a shutdown at every
+// enable, and the loop would never drive.
 void run_thermal_poll(Controller& controller, hal::TecDriver& tec, double now_s) noexcept;
+// The E/S sense line's settling after an enable: the board's two
+// optocouplers and pull-ups (docs/BOARD-rpi4.md), and the virtual board's
+// emulated line (a gpio-sim write under TCG: up to 40 ms), with margin.
+inline constexpr double kEsSenseSettleS = 0.1;
 
 // What the per-sample path produced since the last output row: the sums for
 // the mean raw and compensated rate, and every flag raised. Both runners

@@ -61,6 +61,12 @@ class TecLoop {
   bool program_finished() const noexcept { return program_finished_.load(std::memory_order_acquire); }
   // New PID parameters from the next period on (the Controller's reload).
   void retune(const control::PidParams& pid) noexcept;
+  // Another model-based loop (nullptr: the PID) from the next period on (the
+  // Controller's reload). While the TEC drives, the new loop takes over from
+  // where the running one leaves the housing, without a kick
+  // (control::ObserverLoop::adopt; the PID with its integral at the current
+  // applied). `next` is built off this thread and outlives its use here.
+  void switch_observer(control::ObserverLoop* next) noexcept;
 
   bool pid_running() const noexcept { return pid_running_; }
   // Whether a restart continues with the integral a fault stopped the PID at.
@@ -87,7 +93,10 @@ class TecLoop {
 
   const ControllerConfig& config_;
   control::IncrementalPid pid_;
-  std::optional<control::ObserverLoop> observer_;
+  control::ObserverLoop* observer_ = nullptr;  // the model-based loop in use: own_observer_, or a reload's
+  std::optional<control::ObserverLoop> own_observer_;
+  double last_casing_c_ = std::numeric_limits<double>::quiet_NaN();   // the last period's casing reading
+  double last_ambient_c_ = std::numeric_limits<double>::quiet_NaN();  // the last ambient reading
   std::uint32_t flags_;
   bool pid_running_ = false;
   bool resume_ = false;              // the next start continues the PID where a fault stopped it

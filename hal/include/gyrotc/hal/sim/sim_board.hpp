@@ -54,6 +54,11 @@ struct SimBoardOptions {
   Ds18b20Options sensor;
   bool ambient_sensor = true;    // a second DS18B20 outside the casing
   bool opa548_sense = true;      // a GPIO reads the OPA548's E/S pin (es_sense)
+  // How late es_sense follows the pin: the board's two optocouplers and their
+  // pull-ups (docs/BOARD-rpi4.md), a slow phototransistor's rise with a weak
+  // pull-up taken at its worst, 1 ms (the virtual board's emulated line, a
+  // gpio-sim write under TCG: up to 40 ms).
+  double opa548_sense_delay_s = 0.001;
   // The ADS1251 reader's environment: DRDY edge to wake-up, IRQ delivery,
   // SPI start and return (SimAds1251::Timing, seeded from the board's seed).
   // The chip itself is always as hostile as the part; by default the reader

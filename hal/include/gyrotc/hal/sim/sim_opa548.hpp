@@ -2,6 +2,7 @@
 
 #include <atomic>
 
+#include "gyrotc/hal/clock.hpp"
 #include "gyrotc/hal/gpio_line.hpp"
 
 namespace gyrotc::hal {
@@ -10,7 +11,9 @@ namespace gyrotc::hal {
 // push-pull output (false = low = disabled; power-on: low); reading it back
 // gives the level driven, as a GPIO output does (on the reference board it
 // drives E/S through an optocoupler and sees nothing of the pin). es_sense
-// reads the pin, which the part pulls low itself in thermal shutdown.
+// reads the pin, which the part pulls low itself in thermal shutdown; it
+// follows the pin sense_delay_s late (the board's optocouplers and pull-ups:
+// a read right after an enable still sees the disabled pin).
 class SimOpa548 {
  public:
   // Told when the drive line changes, on the thread that set it.
@@ -20,7 +23,8 @@ class SimOpa548 {
     virtual void on_opa548_drive(bool released) noexcept = 0;
   };
 
-  explicit SimOpa548(Listener* listener = nullptr) noexcept : listener_(listener) {}
+  explicit SimOpa548(Listener* listener = nullptr, const Clock* clock = nullptr, double sense_delay_s = 0.0) noexcept
+      : listener_(listener), clock_(clock), sense_delay_s_(sense_delay_s) {}
   SimOpa548(const SimOpa548&) = delete;
   SimOpa548& operator=(const SimOpa548&) = delete;
 
@@ -38,6 +42,8 @@ class SimOpa548 {
   }
   // The output stage conducts.
   bool output_enabled() const noexcept { return drive_released() && !in_shutdown(); }
+  // What es_sense reads now: the pin high, released at least sense_delay_s ago.
+  bool sense_high() const noexcept;
 
  private:
   class Drive final : public GpioLine {
@@ -57,13 +63,16 @@ class SimOpa548 {
 
    private:
     Status do_set(bool) noexcept override;
-    Result<bool> do_get() noexcept override { return chip_.output_enabled(); }
+    Result<bool> do_get() noexcept override { return chip_.sense_high(); }
     Result<double> do_wait_edge(Edge, double) noexcept override;
     std::string_view do_name() const noexcept override { return "sim:opa548-es-sense"; }
     SimOpa548& chip_;
   };
 
   Listener* listener_;
+  const Clock* clock_;
+  double sense_delay_s_;
+  std::atomic<double> released_at_s_{0.0};
   Drive drive_{*this};
   Sense sense_{*this};
   std::atomic<bool> released_{false};
