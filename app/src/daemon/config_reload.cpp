@@ -66,12 +66,6 @@ bool reloadable_key(std::string_view key) {
   return std::find(std::begin(kReloadable), std::end(kReloadable), key) != std::end(kReloadable);
 }
 
-bool same_model_based_loop(const ControllerConfig& a, const ControllerConfig& b) {
-  if (a.observer == nullptr || b.observer == nullptr) return a.observer == b.observer;
-  // The same model and specification design the same loop.
-  return a.observer->model == b.observer->model && a.observer->spec == b.observer->spec;
-}
-
 ReloadPlan plan_reload(const SessionOptions& options, const toml::table& running) {
   ReloadPlan plan;
   plan.config = load_daemon_config(options.config_path);

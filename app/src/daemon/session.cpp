@@ -307,14 +307,14 @@ std::string run_session(const SessionOptions& options) {
         controller.set_compensator(*compensators.back());
         GYROTC_LOG_NOTICE("SIGHUP: calibration reloaded from %s", text.c_str());
         config.output.status_interval_s = plan.config.output.status_interval_s;
-        const ControllerConfig& running_controller = reloads.empty() ? config.controller : reloads.back()->config;
+        const ControllerConfig& asked_before = reloads.empty() ? config.controller : reloads.back()->config;
         if (experiment_runs) {
           GYROTC_LOG_NOTICE("SIGHUP: an experiment drives the TEC: [control] not applied");
         } else {
-          // Kept alive, with the new model-based loop built here: the loop
+          // Kept alive, with its model-based loop built here: the loop
           // thread takes it at its next PID period (Controller::request_reload).
-          const bool new_loop = !same_model_based_loop(running_controller, plan.config.controller);
-          reloads.push_back(std::make_unique<ControllerReload>(plan.config.controller, new_loop));
+          const bool new_loop = !same_model_based_loop(asked_before, plan.config.controller);
+          reloads.push_back(std::make_unique<ControllerReload>(plan.config.controller));
           const ControllerConfig& c = reloads.back()->config;
           controller.request_reload(*reloads.back());
           publisher.set_control(c.pid_enabled ? "pid" : "tec_off", current_limit_a(c));

@@ -100,9 +100,13 @@ void Controller::on_ambient_temperature(const hal::TemperatureReading& reading, 
   }
 }
 
-ControllerReload::ControllerReload(ControllerConfig next, bool changes_loop)
-    : config(std::move(next)), new_loop(changes_loop) {
-  if (new_loop && config.observer) observer.emplace(config.observer);
+bool same_model_based_loop(const ControllerConfig& a, const ControllerConfig& b) noexcept {
+  if (a.observer == nullptr || b.observer == nullptr) return a.observer == b.observer;
+  return a.observer->model == b.observer->model && a.observer->spec == b.observer->spec;
+}
+
+ControllerReload::ControllerReload(ControllerConfig next) : config(std::move(next)) {
+  if (config.observer) observer.emplace(config.observer);
 }
 
 void Controller::apply_reload(ControllerReload& next) noexcept {
@@ -115,7 +119,9 @@ void Controller::apply_reload(ControllerReload& next) noexcept {
   config_.setpoint_ramp_c_per_s = c.setpoint_ramp_c_per_s;
   config_.rail = c.rail;
   loop_.retune(c.pid);
-  if (next.new_loop) {
+  // Against the loop running, not the last reload asked for: one that came
+  // in the same period may have been skipped.
+  if (!same_model_based_loop(config_, c)) {
     // The old design stays alive in the reload (or the start) that brought it.
     config_.observer = c.observer;
     supervisor_.set_model_check(config_.observer != nullptr);

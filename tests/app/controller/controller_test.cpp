@@ -651,7 +651,7 @@ TEST_CASE("a reload's new gains take over at the next PID period without a step 
   gains.pid = gyrotc::control::PidParams::from_gains(0.96, 0.64, 20.0, 2.0);
   gains.pid.out_min = h.config.pid.out_min;
   gains.pid.out_max = h.config.pid.out_max;
-  ControllerReload next(gains, false);
+  ControllerReload next(gains);
   h.controller.request_reload(next);
   CHECK(h.controller.reload_applied() == nullptr);  // not before the loop's next period
   const TecCommand after = h.run_for(2.0, 54.8, true, false);
@@ -669,7 +669,7 @@ TEST_CASE("a reloaded setpoint ramps from the one in use at the configured rate"
   REQUIRE(h.controller.active_setpoint_c() == Approx(55.0));
   ControllerConfig lower = c;
   lower.setpoint_c = 50.0;
-  ControllerReload next(lower, false);
+  ControllerReload next(lower);
   h.controller.request_reload(next);
   h.run_for(100.0, 55.0);
   CHECK(h.controller.config().setpoint_c == 50.0);
@@ -681,7 +681,7 @@ TEST_CASE("a reload that turns the PID off turns the TEC off at the next period"
   REQUIRE(h.run_for(20.0, 40.0).enable);
   ControllerConfig off = h.config;
   off.pid_enabled = false;
-  ControllerReload next(off, false);
+  ControllerReload next(off);
   h.controller.request_reload(next);
   const TecCommand cmd = h.run_for(2.0, 40.0);
   CHECK_FALSE(cmd.enable);

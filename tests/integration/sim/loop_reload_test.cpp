@@ -92,7 +92,7 @@ TEST_CASE("reload: a new model for the model-based loop takes over the hold with
   ReloadRig rig(reference);
   rig.run_until(kReloadS);
   const double jitter_a = rig.largest_step_a(kReloadS - 600.0, kReloadS);
-  app::ControllerReload next(with_other_model(reference), true);
+  app::ControllerReload next(with_other_model(reference));
   rig.controller().request_reload(next);
   rig.run_until(kReloadS + 1200.0);
   REQUIRE(rig.controller().reload_applied() == &next);
@@ -109,10 +109,10 @@ TEST_CASE("reload: from the model-based loop to the PID and back, the current go
   rig.run_until(kReloadS);
   const double jitter_a = rig.largest_step_a(kReloadS - 600.0, kReloadS);
   app::ControllerConfig pid = app::controller_preset(app::ControllerMode::tuned, plant);
-  app::ControllerReload to_pid(pid, true);
+  app::ControllerReload to_pid(pid);
   rig.controller().request_reload(to_pid);
   rig.run_until(kReloadS + 600.0);
-  app::ControllerReload back(reference, true);
+  app::ControllerReload back(reference);
   rig.controller().request_reload(back);
   rig.run_until(kReloadS + 1200.0);
   REQUIRE(rig.controller().reload_applied() == &back);
@@ -122,4 +122,22 @@ TEST_CASE("reload: from the model-based loop to the PID and back, the current go
   CHECK(to_pid_a <= std::max(2.0 * jitter_a, 0.02));
   CHECK(back_a <= std::max(2.0 * jitter_a, 0.02));
   CHECK(rig.worst_error_c(55.0, kReloadS, kReloadS + 1200.0) < 0.1);
+}
+
+TEST_CASE("reload: of two reloads in one period, the one asked for last runs, with its own loop") {
+  const model::PlantParams plant;
+  const app::ControllerConfig reference = app::controller_preset(app::ControllerMode::oracle, plant);
+  ReloadRig rig(reference);
+  rig.run_until(kReloadS);
+  // The second is the first's model again (the session built each its own):
+  // the loop it carries takes over, though it changes nothing against the first.
+  app::ControllerReload first(with_other_model(reference));
+  app::ControllerReload second(with_other_model(reference));
+  rig.controller().request_reload(first);
+  rig.controller().request_reload(second);
+  rig.run_until(kReloadS + 600.0);
+  REQUIRE(rig.controller().reload_applied() == &second);
+  CHECK(rig.controller().config().observer == second.config.observer);
+  CHECK(rig.largest_step_a(kReloadS, kReloadS + 10.0) <= 0.01);
+  CHECK(rig.worst_error_c(55.0, kReloadS, kReloadS + 600.0) < 0.0625);
 }

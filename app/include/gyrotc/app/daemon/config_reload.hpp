@@ -25,12 +25,6 @@ std::vector<std::string> changed_keys(const toml::table& before, const toml::tab
 // period, the sensor period and the rate output) takes a restart.
 bool reloadable_key(std::string_view key);
 
-// Whether two controllers run the same model-based loop, or neither runs
-// one. A reload that changes it (or the loop's type) brings a new loop,
-// built off the real-time thread, that takes over from the running one
-// (ControllerReload); otherwise the running loop goes on with its filter.
-bool same_model_based_loop(const ControllerConfig& a, const ControllerConfig& b);
-
 struct ReloadPlan {
   DaemonConfig config;                    // the file as read now, the command line's overrides applied
   CalibrationInUse calibration;           // its calibration, loaded

@@ -63,16 +63,21 @@ struct ControllerConfig {
 // Throws std::invalid_argument naming the field.
 void validate(const ControllerConfig& config);
 
+// Whether two controllers run the same model-based loop (the same model and
+// specification design the same loop), or neither runs one. Allocates
+// nothing (the real-time thread asks it at a reload).
+bool same_model_based_loop(const ControllerConfig& a, const ControllerConfig& b) noexcept;
+
 // A configuration reload (Controller::request_reload): the controller to run
-// and, when it changes the model-based loop or the loop's type (new_loop),
-// the new loop, built here, off the real-time thread; it takes over at the
-// next period from where the running loop leaves the housing, without a kick
-// (TecLoop::switch_observer).
+// and its model-based loop, built here, off the real-time thread. When the
+// reload changes the running loop or the loop's type (same_model_based_loop),
+// that loop takes over at the next period from where the running one leaves
+// the housing, without a kick (TecLoop::switch_observer); otherwise the
+// running loop goes on with its filter.
 struct ControllerReload {
-  ControllerReload(ControllerConfig next, bool changes_loop);
+  explicit ControllerReload(ControllerConfig next);
   ControllerConfig config;
-  bool new_loop = false;
-  std::optional<control::ObserverLoop> observer;  // with new_loop and config.observer
+  std::optional<control::ObserverLoop> observer;  // with config.observer
 };
 
 class Controller {
