@@ -15,7 +15,7 @@ using namespace gyrotc;
 
 namespace {
 
-struct Rig {
+struct SenseRig {
   hal::SimBoard board{model::PlantParams{}, 1, [] {
                         hal::SimBoardOptions o;
                         o.adc.fclk_hz = 20.0 * 384.0;
@@ -36,7 +36,7 @@ struct Rig {
 }  // namespace
 
 TEST_CASE("an OPA548 just enabled is not taken for one in thermal shutdown while its E/S sense settles") {
-  Rig rig;
+  SenseRig rig;
   rig.period_at(2.0);
   REQUIRE(rig.controller.tec_driving());
   REQUIRE_FALSE(rig.board.opa548_chip().sense_high());  // the sense still shows the disabled pin
@@ -51,7 +51,7 @@ TEST_CASE("an OPA548 just enabled is not taken for one in thermal shutdown while
 }
 
 TEST_CASE("an OPA548 in thermal shutdown is still seen at the first row once its E/S sense has settled") {
-  Rig rig;
+  SenseRig rig;
   rig.period_at(2.0);
   rig.board.inject_opa548_thermal_shutdown(true);
   rig.board.advance_to(2.5);
