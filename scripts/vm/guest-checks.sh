@@ -523,8 +523,9 @@ held_fault() {
   if [ "$flag" != - ]; then
     wait_for "$wait_s" status_has "$flag" && st=$(status_line)
   fi
-  # Longer than the hold asked: the plant's samples in the event log start after the mark.
-  sleep $((wait_s + 2 - (SECONDS - since) > 0 ? wait_s + 2 - (SECONDS - since) : 0))
+  # Longer than the hold asked: the plant's samples in the event log start
+  # after the mark and reach the log a second or two late.
+  sleep $((wait_s + 5 - (SECONDS - since) > 0 ? wait_s + 5 - (SECONDS - since) : 0))
   held=$(report settle --after-mark "$check" --setpoint 55 --band 0.3 --hold "$wait_s")
   held_ok=$?
   [ "$flag" != - ] && line=$(fault_line "$c" "$flag")
