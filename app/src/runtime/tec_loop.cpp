@@ -24,8 +24,7 @@ void TecLoop::switch_observer(control::ObserverLoop* next) noexcept {
   } else if (driving) {
     // To the PID: its integral part starts at the current applied (less the
     // feed-forward it adds), its proportional part on the error then.
-    pid_.reset(command_.current_a -
-               control::feed_forward_a(config_.feed_forward_a_per_c, config_.setpoint_c, ff_ambient_.value_c()));
+    pid_.reset(command_.current_a - feed_forward_a());
   }
   observer_ = next;
 }
@@ -98,7 +97,7 @@ const TecCommand& TecLoop::pid_tick(double now_s, double casing_c, double ambien
     model_drove_ = true;
     return drive(current_a, observer_->saturated(), now_s);
   }
-  const double ff = control::feed_forward_a(config_.feed_forward_a_per_c, config_.setpoint_c, ff_ambient_.value_c());
+  const double ff = feed_forward_a();
   // Anti-windup on the current applied (issue 22): control/tec_law.hpp.
   const double current_a =
       control::pid_current_a(pid_, casing_c, active_setpoint_c_, ff, applied_range(casing_c, ambient_c));
@@ -139,6 +138,10 @@ const TecCommand& TecLoop::program_tick(double now_s, double casing_c, double am
 LoopEstimate TecLoop::estimate() const noexcept {
   if (!observer_ || !observer_->started() || program_ != nullptr) return {};
   return {observer_->controlled_estimate_c(), observer_->ambient_estimate_c(), observer_->holding_current_a()};
+}
+
+double TecLoop::feed_forward_a() const noexcept {
+  return control::feed_forward_a(config_.feed_forward_a_per_c, config_.setpoint_c, ff_ambient_.value_c());
 }
 
 control::CurrentRange TecLoop::applied_range(double casing_c, double ambient_c) const noexcept {

@@ -90,6 +90,8 @@ class TecLoop {
   const TecCommand& drive(double current_a, bool saturated, double now_s) noexcept;
   // The current the stage can apply now: out_min/out_max within the rails.
   control::CurrentRange applied_range(double casing_c, double ambient_c) const noexcept;
+  // The PID's feed-forward now: the setpoint against the lagged ambient.
+  double feed_forward_a() const noexcept;
 
   const ControllerConfig& config_;
   control::IncrementalPid pid_;
