@@ -25,8 +25,8 @@ PLAN=(deb-install sysusers gpio-sim-module udev-gpiochip gpio-chip-lookup gpio-d
       gpio-drdy-conversions gpio-edge-queue gpio-discard gpio-es-output gpio-consumers safe-off-es
       hil-emulator hil-probe hil-tune start realtime sandbox watchdog outputs hil-settle
       journal-quiet status reload-control hil-sensor-loss hil-opa548 hil-adc-stall
-      hil-ambient-disconnect hil-ambient-crc hil-ambient-all-zero hil-ambient-low-resolution
-      hil-ambient-power-on-reset hil-ambient-stuck hil-casing-power-on-reset hil-spi-adc hil-spi-rate-dac
+      hil-ambient-disconnect hil-casing-power-on-reset hil-ambient-crc hil-spi-adc hil-ambient-all-zero
+      hil-spi-rate-dac hil-ambient-low-resolution hil-ambient-power-on-reset hil-ambient-stuck
       hil-casing-crc hil-casing-all-zero hil-casing-low-resolution hil-spi-tec-dac hil-casing-stuck hil-stop stop
       hil-calibration reload hil-compensation hil-crash-safe-off crash-restart output-refused seccomp-kill)
 echo "vm-test: plan ${PLAN[*]}"
@@ -362,10 +362,16 @@ if [ -n "$settle" ]; then
   rows_during=$(($(grep -c '^' "$csv") - rows_before))
   n_quiet=$(grep -c . <<<"$quiet")
   n_start=$(unit_log "$c_start" | grep -c .)
-  if [ "$n_quiet" -le 5 ] && [ "$(prop ActiveState)" = active ]; then
-    pass journal-quiet "60 s of holding: $n_quiet journal lines from gyrotc.service ($n_start since its start; $rows_during rows went to the CSV record meanwhile)${quiet:+: $(tr '\n' '|' <<<"$quiet" | cut -c1-200)}"
+  # The emulated ADC misses a DRDY now and then under TCG on a loaded host
+  # (adc_invalid for one sample): each costs four lines (the fault, the state,
+  # the clear, the state back), and the journal tells it at most once per 30 s.
+  # Those are told, not spam; everything else must stay a handful.
+  n_adc=$(grep -c '^fault adc_invalid:' <<<"$quiet")
+  n_other=$(grep -vcE 'adc_invalid|^state: holding' <<<"$quiet")
+  if [ "$n_other" -le 5 ] && [ "$n_adc" -le 2 ] && [ "$(prop ActiveState)" = active ]; then
+    pass journal-quiet "60 s of holding: $n_quiet journal lines from gyrotc.service, $n_adc emulated DRDY timeouts among them ($n_start since its start; $rows_during rows went to the CSV record meanwhile)${quiet:+: $(tr '\n' '|' <<<"$quiet" | cut -c1-200)}"
   else
-    fail journal-quiet "60 s of holding: $n_quiet journal lines from gyrotc.service (a handful expected)" "$(head -20 <<<"$quiet")"
+    fail journal-quiet "60 s of holding: $n_quiet journal lines from gyrotc.service, $n_other besides $n_adc DRDY timeouts (a handful expected, a flapping fault told at most once per 30 s)" "$(head -20 <<<"$quiet")"
   fi
 else
   fail journal-quiet "the casing never held the band (hil-settle): no steady minute to count"
@@ -589,15 +595,17 @@ off_fault() {
 emu_mark faults-settle
 for _ in $(seq 1 24); do report settle --after-mark faults-settle --setpoint 55 --band 0.3 --hold 10 >/dev/null && break; sleep 5; done
 ambient_wait=$((ambient_stale_s + ambient_every_s + 2))
+# The ambient checks raise one flag, which the journal tells again only 30 s
+# after its last raise (quiet_window): the checks of other flags run between them.
 held_fault hil-ambient-disconnect ambient_stale $ambient_wait "ambient DS18B20 unplugged" "fault ambient disconnect" "fault ambient none"
+held_fault hil-casing-power-on-reset temp_invalid 8 "casing DS18B20 85 C power-on value once (rejected, TEC current held)" "fault casing power-on-reset" "fault casing none"
 held_fault hil-ambient-crc ambient_stale $ambient_wait "ambient DS18B20 failing every CRC" "fault ambient crc" "fault ambient none"
+held_fault hil-spi-adc adc_stalled $((adc_stall + 2 * period + 1)) "ADS1251's SPI fails every transfer (EIO)" "fault spi-error adc on" "fault spi-error adc off"
 held_fault hil-ambient-all-zero ambient_stale $ambient_wait "ambient DS18B20 all-zero scratchpad (bus held low)" "fault ambient all-zero" "fault ambient none"
+held_fault hil-spi-rate-dac rate_dac_failed $((2 * period + 2)) "rate DAC's SPI fails every transfer (EIO)" "fault spi-error rate_dac on" "fault spi-error rate_dac off"
 held_fault hil-ambient-low-resolution ambient_stale $ambient_wait "ambient DS18B20 at 9 bits" "fault ambient low-resolution" "fault ambient none"
 held_fault hil-ambient-power-on-reset - $((ambient_every_s + 4)) "ambient DS18B20 85 C power-on value once (rejected)" "fault ambient power-on-reset" "fault ambient none"
 held_fault hil-ambient-stuck - 20 "ambient DS18B20 frozen on its reading" "fault ambient stuck" "fault ambient none"
-held_fault hil-casing-power-on-reset temp_invalid 8 "casing DS18B20 85 C power-on value once (rejected, TEC current held)" "fault casing power-on-reset" "fault casing none"
-held_fault hil-spi-adc adc_stalled $((adc_stall + 2 * period + 1)) "ADS1251's SPI fails every transfer (EIO)" "fault spi-error adc on" "fault spi-error adc off"
-held_fault hil-spi-rate-dac rate_dac_failed $((2 * period + 2)) "rate DAC's SPI fails every transfer (EIO)" "fault spi-error rate_dac on" "fault spi-error rate_dac off"
 
 sensor_limit=$(((stale + 1) * period))
 off_fault hil-casing-crc temp_stale $sensor_limit "casing DS18B20 failing every CRC" "fault casing crc" "fault casing none" fault:casing_sensor
