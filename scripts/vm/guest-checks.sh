@@ -85,6 +85,11 @@ emu() { gyrotc-emu ctl "$@" 2>&1; }
 emu_mark() { gyrotc-emu ctl mark "$1" >/dev/null 2>&1; }
 report() { gyrotc-emu report "$1" --log "$EMU_LOG" "${@:2}" 2>&1; }
 main_pid() { prop MainPID; }
+# The daemon's Prometheus file (output.metrics_file): a metric's value, e.g.
+# prom 'gyrotc_flag{flag="temp_stale"}' -> 1.
+PROM=/run/gyrotc/gyrotc.prom
+prom() { awk -v m="$1" '$1 == m { print $2 }' "$PROM" 2>/dev/null; }
+prom_is() { [ "$(prom "$1")" = "$2" ]; }
 
 # --- 1. the packages, as a user installs them ---------------------------------
 out=$(apt install -y "./$DEB" "./$EMU_DEB" 2>&1)
@@ -239,14 +244,15 @@ if [ "$emu_started" = 1 ]; then
 
   # --- 5. the unit's own controller: the identification experiment, then tune ------
   # The fast plant's time constants are a tenth of the seed's: the experiment
-  # shortened to match (scale 0.05: about 5.5 min instead of 2 h 35 min).
+  # shortened to match (scale 0.04: 5 min instead of 2 h 35 min, some phases
+  # having minimum lengths).
   emu_mark tune-start
   t_rec=$SECONDS
-  timeout 1200 gyrotc record --config "$CONF" --experiment tune --experiment-scale 0.05 \
+  timeout 1200 gyrotc record --config "$CONF" --experiment tune --experiment-scale 0.04 \
     --out /var/lib/gyrotc/tune.csv >/tmp/tune-record.log 2>&1
   rec_status=$?
   rec_s=$((SECONDS - t_rec))
-  timeout 600 gyrotc tune --data /var/lib/gyrotc/tune.csv --out /etc/gyrotc/controller.toml --experiment-scale 0.05 \
+  timeout 600 gyrotc tune --data /var/lib/gyrotc/tune.csv --out /etc/gyrotc/controller.toml --experiment-scale 0.04 \
     >/tmp/tune.log 2>&1
   tune_status=$?
   if [ "$rec_status" -eq 0 ] && [ "$tune_status" -eq 0 ]; then
@@ -320,10 +326,11 @@ rows=$(($(wc -l <"$csv" 2>/dev/null || echo 1) - 1))
 status_file=/run/gyrotc/status.json
 if [ -f "$csv" ] && [ "$(stat -c %U:%G "$csv")" = gyrotc:gyrotc ] && head -1 "$csv" | grep -q '^time_s,' &&
    [ "$rows" -ge $((RUN_S / 3)) ] && [ "$(stat -c '%U %a' "$status_file" 2>&1)" = "gyrotc 644" ] &&
+   [ "$(stat -c '%U %a' "$PROM" 2>&1)" = "gyrotc 644" ] && [ "$(grep -c '^gyrotc_state{state="[a-z_]*"} 1$' "$PROM")" = 1 ] &&
    [ "$(stat -c '%a' /run/gyrotc 2>&1)" = 755 ]; then
-  pass outputs "output.record_csv -> $csv ($(stat -c '%U:%G %a' "$csv"), $rows rows after ${ran_s} s) in StateDirectory=$(prop StateDirectory); output.status_file -> $status_file ($(stat -c '%U %a' "$status_file")) in RuntimeDirectory=$(prop RuntimeDirectory) (mode $(stat -c %a /run/gyrotc))"
+  pass outputs "output.record_csv -> $csv ($(stat -c '%U:%G %a' "$csv"), $rows rows after ${ran_s} s) in StateDirectory=$(prop StateDirectory); output.status_file -> $status_file ($(stat -c '%U %a' "$status_file")) and output.metrics_file -> $PROM ($(stat -c '%U %a' "$PROM"), '$(grep -m1 '^gyrotc_state{.*} 1$' "$PROM")') in RuntimeDirectory=$(prop RuntimeDirectory) (mode $(stat -c %a /run/gyrotc))"
 else
-  fail outputs "record $csv: $(stat -c '%U:%G %a %s bytes' "$csv" 2>&1), $rows rows; status $status_file: $(stat -c '%U %a' "$status_file" 2>&1), /run/gyrotc $(stat -c '%a' /run/gyrotc 2>&1)" \
+  fail outputs "record $csv: $(stat -c '%U:%G %a %s bytes' "$csv" 2>&1), $rows rows; status $status_file: $(stat -c '%U %a' "$status_file" 2>&1); metrics $PROM: $(stat -c '%U %a' "$PROM" 2>&1), '$(grep -m1 '^gyrotc_state{.*} 1$' "$PROM" 2>&1)'; /run/gyrotc $(stat -c '%a' /run/gyrotc 2>&1)" \
     "$(head -3 "$csv" 2>&1)"
 fi
 
@@ -338,7 +345,7 @@ done
 gains=$(grep -E '^(kp|ki|kd|xi_c) ' /etc/gyrotc/controller.toml 2>/dev/null | awk '{printf "%s %s ", $1, $3}')
 if [ -n "$settle" ] && grep -q '^controller_file = "controller.toml"' "$CONF"; then
   pass hil-settle "the service on the emulated board, its true casing: $settle"
-  pass hil-tune "gyrotc record --experiment tune --experiment-scale 0.05 on the emulated board ($rec_s s), gyrotc tune: $(grep -m1 'predicted' /tmp/tune.log | sed 's/^ *//'); the controller file ($gains) installed, and the service holds the band with it"
+  pass hil-tune "gyrotc record --experiment tune --experiment-scale 0.04 on the emulated board ($rec_s s), gyrotc tune: $(grep -m1 'predicted' /tmp/tune.log | sed 's/^ *//'); the controller file ($gains) installed, and the service holds the band with it"
 else
   last=$(report settle --after-mark service-start --setpoint 55 --band 0.3 --hold 60)
   if grep -q '^controller_file' "$CONF"; then
@@ -517,20 +524,39 @@ quiet_window() {
   awk -v l="$last" -v n="$(cut -d' ' -f1 /proc/uptime)" 'BEGIN { w = l + 31 - n; if (w > 0) system("sleep " w) }'
 }
 
-# A fault the TEC path survives, from a settled start: FLAG raised (journal and
-# status) within WAIT s, the true casing within 0.3 C of 55 C meanwhile, FLAG
-# cleared once the fault is gone. No FLAG ("-"): nothing to tell, no fault of
-# the temperature paths raised (the emulated ADC's occasional DRDY timeout,
-# adc_invalid, is not this check's), and the casing held.
-held_fault() {
-  local check=$1 flag=$2 wait_s=$3 what=$4 on=$5 off=$6 c st="" held held_ok line="" cleared="" since
+# A fault the TEC path survives, from a settled start: FLAG raised (journal,
+# status and the Prometheus file) within WAIT s, the true casing within 0.3 C
+# of 55 C meanwhile, FLAG cleared (the same three) once the fault is gone. No
+# FLAG ("-"): nothing to tell, no fault of the temperature paths raised (the
+# emulated ADC's occasional DRDY timeout, adc_invalid, is not this check's),
+# and the casing held. held_fault_begin injects and watches in the background,
+# held_fault_end judges: a check of another flag the casing survives may run
+# between them (the ambient DS18B20's faults take WAIT = 38 s to be told).
+declare -A HF_FLAG HF_WAIT HF_WHAT HF_OFF HF_C HF_SINCE HF_WATCH
+held_fault() { held_fault_begin "$@"; held_fault_end "$1"; }
+held_fault_begin() {
+  local check=$1 flag=$2
   [ "$flag" != - ] && quiet_window "$flag"
-  c=$(mark)
+  HF_FLAG[$check]=$flag HF_WAIT[$check]=$3 HF_WHAT[$check]=$4 HF_OFF[$check]=$6
+  HF_C[$check]=$(mark)
   emu_mark "$check"
-  since=$SECONDS
-  emu $on >/dev/null
+  HF_SINCE[$check]=$SECONDS
+  emu $5 >/dev/null
+  rm -f "/tmp/hf-$check.seen"
   if [ "$flag" != - ]; then
-    wait_for "$wait_s" status_has "$flag" && st=$(status_line)
+    # The first status line naming FLAG, and the Prometheus file then.
+    ( wait_for "$3" status_has "$flag" &&
+      { status_line; wait_for 3 prom_is "gyrotc_flag{flag=\"$flag\"}" 1 && wait_for 3 prom_is 'gyrotc_state{state="fault"}' 1 &&
+        echo "gyrotc_flag{flag=\"$flag\"} 1, gyrotc_state{state=\"fault\"} 1"; } >"/tmp/hf-$check.seen" ) &
+    HF_WATCH[$check]=$!
+  fi
+}
+held_fault_end() {
+  local check=$1 flag=${HF_FLAG[$1]} wait_s=${HF_WAIT[$1]} what=${HF_WHAT[$1]} c=${HF_C[$1]} since=${HF_SINCE[$1]}
+  local st="" prom_on="" prom_off="" held held_ok line="" cleared=""
+  if [ "$flag" != - ]; then
+    wait "${HF_WATCH[$check]}"
+    st=$(sed -n 1p "/tmp/hf-$check.seen" 2>/dev/null) prom_on=$(sed -n 2p "/tmp/hf-$check.seen" 2>/dev/null)
   fi
   # Longer than the hold asked: the plant's samples in the event log start
   # after the mark and reach the log a second or two late.
@@ -538,7 +564,7 @@ held_fault() {
   held=$(report settle --after-mark "$check" --setpoint 55 --band 0.3 --hold "$wait_s")
   held_ok=$?
   [ "$flag" != - ] && line=$(fault_line "$c" "$flag")
-  emu $off >/dev/null
+  emu ${HF_OFF[$check]} >/dev/null
   if [ "$flag" = - ]; then
     local temp_paths='(ambient_stale|temp_[a-z]+|over_temp_latched|opa548_thermal|tec_write_failed)'
     line=$(unit_log "$c" | grep -m1 -E "fault $temp_paths:")
@@ -550,10 +576,11 @@ held_fault() {
     return
   fi
   cleared_in "$c" "$flag" 30 && cleared=yes
-  if [ "$held_ok" -eq 0 ] && [ -n "$line" ] && [ -n "$st" ] && [ -n "$cleared" ]; then
-    pass "$check" "$what: journal '$line'; status '$st'; the TEC held on: $held; fault gone: cleared after $((SECONDS - since)) s"
+  [ -n "$cleared" ] && wait_for 3 prom_is "gyrotc_flag{flag=\"$flag\"}" 0 && prom_off=yes
+  if [ "$held_ok" -eq 0 ] && [ -n "$line" ] && [ -n "$st" ] && [ -n "$prom_on" ] && [ -n "$cleared" ] && [ -n "$prom_off" ]; then
+    pass "$check" "$what: journal '$line'; status '$st'; $PROM: $prom_on; the TEC held on: $held; fault gone: cleared (journal, Prometheus 0) after $((SECONDS - since)) s"
   else
-    fail "$check" "$what: held '$held'; journal '${line:-no fault $flag line}'; status '${st:-never showed $flag}'; cleared: ${cleared:-no}" \
+    fail "$check" "$what: held '$held'; journal '${line:-no fault $flag line}'; status '${st:-never showed $flag within $wait_s s}'; Prometheus: '${prom_on:-flag or state not 1}'; cleared: ${cleared:-no}, Prometheus 0: ${prom_off:-no}" \
       "$(unit_log "$c" | grep -v '^[0-9]' | tail -8)"
   fi
 }
@@ -565,12 +592,14 @@ held_fault() {
 # SAFE_OPT: --es-only where the TEC DAC itself is what failed.
 off_fault() {
   local check=$1 flag=$2 limit_s=$3 what=$4 on=$5 off=$6 event=$7 safe_opt=${8:-} c st="" flags safe safe_ok rate rate_ok line
-  local resumed="" cleared=""
+  local resumed="" cleared="" prom_on="" prom_off=""
   quiet_window "$flag"
   c=$(mark)
   emu_mark "$check"
   emu $on >/dev/null
-  wait_for $((limit_s + 4)) status_has "$flag" && st=$(status_line)
+  wait_for $((limit_s + 4)) status_has "$flag" && st=$(status_line) &&
+    wait_for 3 prom_is "gyrotc_flag{flag=\"$flag\"}" 1 && wait_for 3 prom_is 'gyrotc_state{state="fault"}' 1 &&
+    prom_on="gyrotc_flag{flag=\"$flag\"} 1, gyrotc_state{state=\"fault\"} 1"
   emu_mark "$check-off"
   sleep 2
   flags=$(status_flags)
@@ -585,11 +614,12 @@ off_fault() {
   wait_for 30 sh -c "gyrotc-emu report safe --log $EMU_LOG --config $CONF --after-mark $check --from-event $event $safe_opt --resume-within 40 >/dev/null" &&
     resumed=$(report safe --config "$CONF" --after-mark "$check" --from-event "$event" $safe_opt --resume-within 40)
   cleared_in "$c" "$flag" 30 && cleared=yes
+  [ -n "$cleared" ] && wait_for 3 prom_is "gyrotc_flag{flag=\"$flag\"}" 0 && prom_off=yes
   if [ "$safe_ok" -eq 0 ] && [ -n "$st" ] && grep -q 'TEC +0.00 A' <<<"$st" && grep -qw uncontrolled <<<"$flags" &&
-     [ "$rate_ok" -eq 0 ] && [ -n "$line" ] && [ -n "$resumed" ] && [ -n "$cleared" ]; then
-    pass "$check" "$what: ${safe%%;*} (limit $limit_s s); journal '$line'; status '$st' [$flags]; the rate DAC went on ($(grep -o '[0-9]* frames' <<<"$rate") in the next 2 s); fault gone: cleared, ${resumed##*; }"
+     [ -n "$prom_on" ] && [ "$rate_ok" -eq 0 ] && [ -n "$line" ] && [ -n "$resumed" ] && [ -n "$cleared" ] && [ -n "$prom_off" ]; then
+    pass "$check" "$what: ${safe%%;*} (limit $limit_s s); journal '$line'; status '$st' [$flags]; $PROM: $prom_on; the rate DAC went on ($(grep -o '[0-9]* frames' <<<"$rate") in the next 2 s); fault gone: cleared (journal, Prometheus 0), ${resumed##*; }"
   else
-    fail "$check" "$what: $safe; status '${st:-never showed $flag}' [$flags]; rate: $rate; journal '${line:-no fault $flag line}'; resumed: ${resumed:-no}; cleared: ${cleared:-no}" \
+    fail "$check" "$what: $safe; status '${st:-never showed $flag}' [$flags]; Prometheus: '${prom_on:-flag or state not 1}'; rate: $rate; journal '${line:-no fault $flag line}'; resumed: ${resumed:-no}; cleared: ${cleared:-no}, Prometheus 0: ${prom_off:-no}" \
       "$(unit_log "$c" | grep -v '^[0-9]' | tail -8)"
   fi
 }
@@ -598,13 +628,17 @@ emu_mark faults-settle
 for _ in $(seq 1 24); do report settle --after-mark faults-settle --setpoint 55 --band 0.3 --hold 10 >/dev/null && break; sleep 5; done
 ambient_wait=$((ambient_stale_s + ambient_every_s + 2))
 # The ambient checks raise one flag, which the journal tells again only 30 s
-# after its last raise (quiet_window): the checks of other flags run between them.
-held_fault hil-ambient-disconnect ambient_stale $ambient_wait "ambient DS18B20 unplugged" "fault ambient disconnect" "fault ambient none"
+# after its last raise (quiet_window). While one waits for its flag, a check
+# of another flag the casing survives runs: the casing is held through both.
+held_fault_begin hil-ambient-disconnect ambient_stale $ambient_wait "ambient DS18B20 unplugged" "fault ambient disconnect" "fault ambient none"
 held_fault hil-casing-power-on-reset temp_invalid 8 "casing DS18B20 85 C power-on value once (rejected, TEC current held)" "fault casing power-on-reset" "fault casing none"
-held_fault hil-ambient-crc ambient_stale $ambient_wait "ambient DS18B20 failing every CRC" "fault ambient crc" "fault ambient none"
+held_fault_end hil-ambient-disconnect
+held_fault_begin hil-ambient-crc ambient_stale $ambient_wait "ambient DS18B20 failing every CRC" "fault ambient crc" "fault ambient none"
 held_fault hil-spi-adc adc_stalled $((adc_stall + 2 * period + 1)) "ADS1251's SPI fails every transfer (EIO)" "fault spi-error adc on" "fault spi-error adc off"
-held_fault hil-ambient-all-zero ambient_stale $ambient_wait "ambient DS18B20 all-zero scratchpad (bus held low)" "fault ambient all-zero" "fault ambient none"
+held_fault_end hil-ambient-crc
+held_fault_begin hil-ambient-all-zero ambient_stale $ambient_wait "ambient DS18B20 all-zero scratchpad (bus held low)" "fault ambient all-zero" "fault ambient none"
 held_fault hil-spi-rate-dac rate_dac_failed $((2 * period + 2)) "rate DAC's SPI fails every transfer (EIO)" "fault spi-error rate_dac on" "fault spi-error rate_dac off"
+held_fault_end hil-ambient-all-zero
 held_fault hil-ambient-low-resolution ambient_stale $ambient_wait "ambient DS18B20 at 9 bits" "fault ambient low-resolution" "fault ambient none"
 held_fault hil-ambient-power-on-reset - $((ambient_every_s + 4)) "ambient DS18B20 85 C power-on value once (rejected)" "fault ambient power-on-reset" "fault ambient none"
 held_fault hil-ambient-stuck - 20 "ambient DS18B20 frozen on its reading" "fault ambient stuck" "fault ambient none"
@@ -613,6 +647,8 @@ sensor_limit=$(((stale + 1) * period))
 off_fault hil-casing-crc temp_stale $sensor_limit "casing DS18B20 failing every CRC" "fault casing crc" "fault casing none" fault:casing_sensor
 off_fault hil-spi-tec-dac tec_write_failed $((2 * period)) "TEC DAC's SPI fails every transfer (EIO)" "fault spi-error tec_dac on" "fault spi-error tec_dac off" fault:spi-error-tec_dac --es-only
 off_fault hil-casing-all-zero temp_stale $sensor_limit "casing DS18B20 all-zero scratchpad (bus held low)" "fault casing all-zero" "fault casing none" fault:casing_sensor
+
+off_fault hil-casing-low-resolution temp_stale $sensor_limit "casing DS18B20 at 9 bits" "fault casing low-resolution" "fault casing none" fault:casing_sensor
 
 # A casing reading frozen while the loop must move the casing (a new setpoint,
 # 60 C): the installed PID heats beyond the unit's stuck_min_drive_a and the
@@ -632,23 +668,25 @@ truth=$(emu status | grep -o 'casing_c=[-0-9.]*')
 safe=$(report safe --config "$CONF" --after-mark casing-stuck --from-event fault:casing_sensor --within $((stuck_s + 15)))
 safe_ok=$?
 line=$(fault_line "$c" temp_stuck)
+prom_on=""
+prom_is 'gyrotc_flag{flag="temp_stuck"}' 1 && prom_on='gyrotc_flag{flag="temp_stuck"} 1'
 emu_mark casing-stuck-restored
 emu fault casing none >/dev/null
-sed -i 's/^setpoint_c *=.*/setpoint_c = 55.0/' /etc/gyrotc/controller.toml
+# Back to a setpoint of 58 C, where the calibration's free sweep (9.) starts:
+# the service takes the casing there before its stop.
+sed -i 's/^setpoint_c *=.*/setpoint_c = 58.0/' /etc/gyrotc/controller.toml
 systemctl reload gyrotc
 resumed=""
 wait_for 30 sh -c "gyrotc-emu report safe --log $EMU_LOG --config $CONF --after-mark casing-stuck --from-event fault:casing_sensor --resume-within 40 >/dev/null" &&
   resumed=$(report safe --config "$CONF" --after-mark casing-stuck --from-event fault:casing_sensor --resume-within 40)
 cleared=""
 cleared_in "$c" temp_stuck 30 && cleared=yes
-if [ "$safe_ok" -eq 0 ] && [ -n "$st" ] && [ -n "$line" ] && [ -n "$resumed" ] && [ -n "$cleared" ]; then
-  pass hil-casing-stuck "casing DS18B20 frozen, setpoint 55 -> 60 C: ${safe%%;*} (limit stuck_s + 15 = $((stuck_s + 15)) s; the true ${truth:-casing_c=?} at the status); journal '$line'; status '$st'; unfrozen: cleared, ${resumed##*; }"
+if [ "$safe_ok" -eq 0 ] && [ -n "$st" ] && [ -n "$prom_on" ] && [ -n "$line" ] && [ -n "$resumed" ] && [ -n "$cleared" ]; then
+  pass hil-casing-stuck "casing DS18B20 frozen, setpoint 55 -> 60 C: ${safe%%;*} (limit stuck_s + 15 = $((stuck_s + 15)) s; the true ${truth:-casing_c=?} at the status); journal '$line'; status '$st'; $PROM: $prom_on; unfrozen (setpoint 58 C): cleared, ${resumed##*; }"
 else
-  fail hil-casing-stuck "frozen, setpoint 60 C: $safe; status '${st:-never showed temp_stuck}'; journal '${line:-no fault temp_stuck line}'; resumed: ${resumed:-no}; cleared: ${cleared:-no}" \
+  fail hil-casing-stuck "frozen, setpoint 60 C: $safe; status '${st:-never showed temp_stuck}'; Prometheus: '${prom_on:-flag not 1}'; journal '${line:-no fault temp_stuck line}'; resumed: ${resumed:-no}; cleared: ${cleared:-no}" \
     "$(unit_log "$c" | grep -v '^[0-9]' | tail -8)"
 fi
-
-off_fault hil-casing-low-resolution temp_stale $sensor_limit "casing DS18B20 at 9 bits" "fault casing low-resolution" "fault casing none" fault:casing_sensor
 
 # --- 8. stop: the daemon's own safe state, then ExecStopPost's -------------------
 # The 0 A frames the TEC DAC latched after a mark, with the pids that wrote them.
@@ -657,6 +695,11 @@ zero_writers() {
   t=$(awk -F, -v m="$1" '$2 == "mark" && $4 == m { t = $1 } END { print t }' "$EMU_LOG")
   awk -F, -v t="$t" '$1 >= t && $2 == "dac" && $3 == "tec_dac" && $4 == 32768 { sub(/.*pid=/, "", $5); print $5 }' "$EMU_LOG" | sort -u | tr '\n' ' '
 }
+# The casing at 58 C (hil-casing-stuck's end moved the setpoint there), where
+# the calibration's free sweep starts: the emulator's true casing.
+true_casing() { emu status | sed -n 's/.*casing_c=\([-0-9.]*\).*/\1/p' | head -1; }
+at_58() { awk -v t="$(true_casing)" 'BEGIN { exit !(t != "" && t >= 57.5 && t <= 58.5) }'; }
+wait_for 60 at_58
 c=$(mark)
 emu_mark stop
 pid=$(main_pid)
@@ -683,8 +726,9 @@ fi
 
 # --- 9. calibration: a record, fit, install, reload ------------------------------
 # The casing cools with the TEC off: the free sweep a calibration needs (a
-# small one, around the setpoint). It starts at 58 C (the unit's controller
-# with its setpoint moved) so that the setpoint lies inside the fitted range:
+# small one, around the setpoint). It starts at 58 C (where the service left
+# the casing; else a 40 s record with the unit's controller at 58 C takes it
+# there) so that the setpoint lies inside the fitted range:
 # the zero bias is curved here, and a fit extrapolated to 55 C from below
 # missed it by up to 0.07 deg/s. The polynomial's order is left to fit's LOO,
 # as a user would. The fast plant's gyro is not the seed's: the seed's
@@ -693,10 +737,16 @@ fi
 # the fast plant cools faster than 0.5 C/min): the check accepts both, named.
 cal_ok=0
 c=$(mark)
-sed 's/^setpoint_c *=.*/setpoint_c = 58.0/' /etc/gyrotc/controller.toml >/tmp/controller-58.toml
-timeout 300 gyrotc record --config "$CONF" --controller /tmp/controller-58.toml --pid on --duration 40 \
-  --out /tmp/heat-58.csv >/tmp/cal-heat.log 2>&1
-heat_status=$?
+heat_status=0
+if at_58; then
+  start_58="from the service's hold, the true casing $(true_casing) C"
+else
+  start_58="after a record at 58 C 40 s (the true casing was $(true_casing) C)"
+  sed 's/^setpoint_c *=.*/setpoint_c = 58.0/' /etc/gyrotc/controller.toml >/tmp/controller-58.toml
+  timeout 300 gyrotc record --config "$CONF" --controller /tmp/controller-58.toml --pid on --duration 40 \
+    --out /tmp/heat-58.csv >/tmp/cal-heat.log 2>&1
+  heat_status=$?
+fi
 timeout 300 gyrotc record --config "$CONF" --pid off --duration 75 --out /var/lib/gyrotc/calibration-run.csv \
   >/tmp/cal-record.log 2>&1
 cal_rec=$?
@@ -706,6 +756,7 @@ gyrotc fit --data /var/lib/gyrotc/calibration-run.csv --bin-width 0.25 --method 
 fit_status=$?
 new_sha=$(sha256sum /var/lib/gyrotc/calibration-unit.toml 2>/dev/null | cut -c1-16)
 emu_mark cal-start
+sed -i 's/^setpoint_c *=.*/setpoint_c = 55.0/' /etc/gyrotc/controller.toml
 systemctl start gyrotc
 pid=$(main_pid)
 for _ in $(seq 1 24); do report settle --after-mark cal-start --setpoint 55 --band 0.3 --hold 10 >/dev/null && break; sleep 5; done
@@ -734,10 +785,10 @@ fi
 if [ "$cal_rec" -eq 0 ] && [ "$fit_status" -eq 0 ] && grep -q "sha256 $new_sha" <<<"$reloaded" && [ "$after_ok" -eq 0 ] &&
    [ "$before_near_zero" -ne 0 ]; then
   cal_ok=1
-  pass hil-calibration "record at 58 C 40 s, --pid off 75 s (fitted $(grep -m1 -o '[0-9.-]* \.\. [0-9.-]* C' /tmp/fit.log)), fit, installed, systemctl reload: journal names sha256 $new_sha; rate DAC before: ${before#*: }; after: ${after#*: }"
+  pass hil-calibration "$start_58: --pid off 75 s (fitted $(grep -m1 -o '[0-9.-]* \.\. [0-9.-]* C' /tmp/fit.log)), fit, installed, systemctl reload: journal names sha256 $new_sha; rate DAC before: ${before#*: }; after: ${after#*: }"
 else
   fail hil-calibration "record exit $cal_rec, fit exit $fit_status, reload '${reloaded:-none}' (sha256 $new_sha); before: $before; after: $after" \
-    "$(tail -12 /tmp/fit.log)" "$(tail -3 /tmp/cal-heat.log)" "$(tail -5 /tmp/cal-record.log)"
+    "$start_58" "$(tail -12 /tmp/fit.log)" "$(tail -3 /tmp/cal-heat.log 2>/dev/null)" "$(tail -5 /tmp/cal-record.log)"
 fi
 # The rate DAC against the daemon's own record, over this run (the reload in
 # it), and no ADC transfer the emulated part knew to be corrupted (read
