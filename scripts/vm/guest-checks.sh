@@ -478,7 +478,7 @@ fi
 # DRDY stops: the rate output goes invalid (mid-scale) and the temperature loop
 # holds on, from a settled start (the faults above left the TEC off a while).
 emu_mark adc-settle
-for _ in $(seq 1 24); do report settle --after-mark adc-settle --setpoint 55 --band 0.3 --hold 10 >/dev/null && break; sleep 5; done
+for _ in $(seq 1 60); do report settle --after-mark adc-settle --setpoint 55 --band 0.3 --hold 10 >/dev/null && break; sleep 2; done
 c=$(mark)
 emu_mark adc-stall
 emu fault drdy-stall on >/dev/null
@@ -515,13 +515,24 @@ status_flags() {
 status_has() { status_line | grep -qE "(^|: )fault ([a-z_0-9]+\+)*$1[:+]"; }
 cleared_in() { wait_for "$3" sh -c "journalctl -u gyrotc.service --after-cursor '$1' -q -o cat | grep -q 'fault $2 cleared'"; }
 # The journal tells a flag raised again within 30 s of its last told raise
-# only once that window has passed (a flapping flag): wait it out before a
-# check that raises FLAG again. Journal and /proc/uptime: the same clock here.
+# only once that window has passed (a flapping flag): before a check that
+# raises FLAG again, wait until the raise cannot fall inside that window. A
+# flag the daemon raises only after a time without a valid reading
+# (RAISE_LEAD s at the least after the fault) may be injected that much
+# earlier. Journal and /proc/uptime: the same clock here.
+declare -A RAISE_LEAD=(
+  # no valid ambient reading for ambient_stale_s, the last one at most an
+  # ambient period before the fault (2 s for that period's jitter)
+  [ambient_stale]=$((ambient_stale_s - ambient_every_s - 2))
+  # no valid casing reading for stale_periods PID periods, the last one at
+  # most a conversion (1 s) before the fault, and 1 s to spare
+  [temp_stale]=$((stale * period - 2)))
 quiet_window() {
   local last
   last=$(journalctl -u gyrotc.service -o short-monotonic -q | grep "fault $1:" | tail -1 | sed -n 's/^\[ *\([0-9.]*\)\].*/\1/p')
   [ -n "$last" ] || return 0
-  awk -v l="$last" -v n="$(cut -d' ' -f1 /proc/uptime)" 'BEGIN { w = l + 31 - n; if (w > 0) system("sleep " w) }'
+  awk -v l="$last" -v lead="${RAISE_LEAD[$1]:-0}" -v n="$(cut -d' ' -f1 /proc/uptime)" \
+    'BEGIN { w = l + 31 - lead - n; if (w > 0) system("sleep " w) }'
 }
 
 # A fault the TEC path survives, from a settled start: FLAG raised (journal,
@@ -544,24 +555,28 @@ held_fault_begin() {
   emu $5 >/dev/null
   rm -f "/tmp/hf-$check.seen"
   if [ "$flag" != - ]; then
-    # The first status line naming FLAG, and the Prometheus file then.
+    # The first status line naming FLAG, when (this script's SECONDS), and
+    # the Prometheus file then.
     ( wait_for "$3" status_has "$flag" &&
-      { status_line; wait_for 3 prom_is "gyrotc_flag{flag=\"$flag\"}" 1 && wait_for 3 prom_is 'gyrotc_state{state="fault"}' 1 &&
+      { status_line; echo "$SECONDS"
+        wait_for 3 prom_is "gyrotc_flag{flag=\"$flag\"}" 1 && wait_for 3 prom_is 'gyrotc_state{state="fault"}' 1 &&
         echo "gyrotc_flag{flag=\"$flag\"} 1, gyrotc_state{state=\"fault\"} 1"; } >"/tmp/hf-$check.seen" ) &
     HF_WATCH[$check]=$!
   fi
 }
 held_fault_end() {
   local check=$1 flag=${HF_FLAG[$1]} wait_s=${HF_WAIT[$1]} what=${HF_WHAT[$1]} c=${HF_C[$1]} since=${HF_SINCE[$1]}
-  local st="" prom_on="" prom_off="" held held_ok line="" cleared=""
+  local st="" seen_s="" prom_on="" prom_off="" hold_s=$wait_s held held_ok line="" cleared=""
   if [ "$flag" != - ]; then
     wait "${HF_WATCH[$check]}"
-    st=$(sed -n 1p "/tmp/hf-$check.seen" 2>/dev/null) prom_on=$(sed -n 2p "/tmp/hf-$check.seen" 2>/dev/null)
+    { read -r st; read -r seen_s; read -r prom_on; } 2>/dev/null <"/tmp/hf-$check.seen"
+    # Held from the fault until 3 s past its raise (the whole WAIT if never raised).
+    [ -n "$seen_s" ] && hold_s=$((seen_s - since + 3 < wait_s ? seen_s - since + 3 : wait_s))
   fi
   # Longer than the hold asked: the plant's samples in the event log start
   # after the mark and reach the log a second or two late.
-  sleep $((wait_s + 5 - (SECONDS - since) > 0 ? wait_s + 5 - (SECONDS - since) : 0))
-  held=$(report settle --after-mark "$check" --setpoint 55 --band 0.3 --hold "$wait_s")
+  sleep $((hold_s + 5 - (SECONDS - since) > 0 ? hold_s + 5 - (SECONDS - since) : 0))
+  held=$(report settle --after-mark "$check" --setpoint 55 --band 0.3 --hold "$hold_s")
   held_ok=$?
   [ "$flag" != - ] && line=$(fault_line "$c" "$flag")
   emu ${HF_OFF[$check]} >/dev/null
@@ -625,7 +640,7 @@ off_fault() {
 }
 
 emu_mark faults-settle
-for _ in $(seq 1 24); do report settle --after-mark faults-settle --setpoint 55 --band 0.3 --hold 10 >/dev/null && break; sleep 5; done
+for _ in $(seq 1 60); do report settle --after-mark faults-settle --setpoint 55 --band 0.3 --hold 10 >/dev/null && break; sleep 2; done
 ambient_wait=$((ambient_stale_s + ambient_every_s + 2))
 # The ambient checks raise one flag, which the journal tells again only 30 s
 # after its last raise (quiet_window). While one waits for its flag, a check
@@ -759,7 +774,7 @@ emu_mark cal-start
 sed -i 's/^setpoint_c *=.*/setpoint_c = 55.0/' /etc/gyrotc/controller.toml
 systemctl start gyrotc
 pid=$(main_pid)
-for _ in $(seq 1 24); do report settle --after-mark cal-start --setpoint 55 --band 0.3 --hold 10 >/dev/null && break; sleep 5; done
+for _ in $(seq 1 60); do report settle --after-mark cal-start --setpoint 55 --band 0.3 --hold 10 >/dev/null && break; sleep 2; done
 emu_mark before-reload
 sleep 15
 emu_mark reload
