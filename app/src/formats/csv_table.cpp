@@ -51,6 +51,15 @@ bool skippable(std::string_view line) {
 }  // namespace
 
 CsvTable CsvTable::read(const std::string& path) {
+  // A folder opens as a stream on Linux and fails only on the first read;
+  // `simulate --out` writes one, with the record inside it.
+  std::error_code kind_error;
+  if (std::filesystem::is_directory(path, kind_error)) {
+    const std::filesystem::path record = std::filesystem::path(path) / "record.csv";
+    std::string message = path + ": is a folder, not a CSV file";
+    if (std::filesystem::is_regular_file(record, kind_error)) message += " (did you mean " + record.string() + "?)";
+    throw InputError(message);
+  }
   std::ifstream in(path, std::ios::binary);
   if (!in) throw InputError(path + ": cannot open: " + std::strerror(errno));
   std::string text;
@@ -59,7 +68,7 @@ CsvTable CsvTable::read(const std::string& path) {
   if (!size_error) text.reserve(static_cast<std::size_t>(size));
   char buffer[1 << 16];
   while (in.read(buffer, sizeof buffer) || in.gcount() > 0) text.append(buffer, static_cast<std::size_t>(in.gcount()));
-  if (in.bad()) throw InputError(path + ": read error");
+  if (in.bad()) throw InputError(path + ": read error: " + std::strerror(errno));
   return parse_owned(std::move(text), path);
 }
 

@@ -125,6 +125,21 @@ TEST_CASE("a missing input file is the same kind of error for every command", "[
   }
 }
 
+TEST_CASE("a folder given as the data file is named as a folder, with the record inside it", "[cli]") {
+  const std::filesystem::path folder = std::filesystem::temp_directory_path() / "gyrotc-cli-run-folder";
+  std::filesystem::create_directories(folder);
+  std::ofstream(folder / "record.csv") << "time_s,casing_c\n";
+  const std::string out = (folder / "out.toml").string();
+  for (const char* command : {"tune", "fit"}) {
+    INFO(command);
+    const CliRun run = run_gyrotc({command, "--data", folder.string(), "--out", out});
+    CHECK(run.status == 2);
+    CHECK(run.err.rfind("gyrotc: error: " + folder.string() + ": is a folder, not a CSV file", 0) == 0);
+    CHECK(run.err.find((folder / "record.csv").string() + "?") != std::string::npos);
+  }
+  std::filesystem::remove_all(folder);
+}
+
 TEST_CASE("--help and --version still exit 0 on stdout", "[cli]") {
   const CliRun help = run_gyrotc({"simulate", "--help"});
   CHECK(help.status == 0);
