@@ -24,10 +24,10 @@ set -u
 PLAN=(deb-install sysusers gpio-sim-module udev-gpiochip gpio-chip-lookup gpio-drdy-edge gpio-drdy-timeout
       gpio-drdy-conversions gpio-edge-queue gpio-discard gpio-es-output gpio-consumers safe-off-es
       hil-emulator hil-probe hil-tune start realtime sandbox watchdog outputs hil-settle
-      journal-quiet status reload-control hil-sensor-loss hil-opa548 hil-adc-stall
+      journal-quiet status reload-control hil-sensor-loss hil-adc-stall
       hil-ambient-disconnect hil-casing-power-on-reset hil-ambient-crc hil-spi-adc hil-ambient-all-zero
       hil-spi-rate-dac hil-ambient-low-resolution hil-ambient-power-on-reset hil-ambient-stuck
-      hil-casing-crc hil-casing-all-zero hil-casing-low-resolution hil-spi-tec-dac hil-casing-stuck hil-stop stop
+      hil-casing-crc hil-spi-tec-dac hil-casing-all-zero hil-opa548 hil-casing-low-resolution hil-casing-stuck hil-stop stop
       hil-calibration reload hil-compensation hil-crash-safe-off crash-restart output-refused seccomp-kill)
 echo "vm-test: plan ${PLAN[*]}"
 [ "${1:-}" = --plan ] && exit 0
@@ -193,10 +193,10 @@ fi
 # line). A CUSE node is not spidev's major, so the unit's DeviceAllow=char-spi
 # does not cover it: a drop-in names the nodes (docs/EMULATOR.md).
 HIL_CHECKS=(hil-emulator hil-probe hil-tune start realtime sandbox watchdog outputs hil-settle journal-quiet status
-            reload-control hil-sensor-loss hil-opa548 hil-adc-stall hil-ambient-disconnect hil-ambient-crc
+            reload-control hil-sensor-loss hil-adc-stall hil-ambient-disconnect hil-ambient-crc
             hil-ambient-all-zero hil-ambient-low-resolution hil-ambient-power-on-reset hil-ambient-stuck
-            hil-casing-power-on-reset hil-spi-adc hil-spi-rate-dac hil-casing-crc hil-casing-all-zero
-            hil-casing-low-resolution hil-spi-tec-dac hil-casing-stuck hil-stop stop hil-calibration reload
+            hil-casing-power-on-reset hil-spi-adc hil-spi-rate-dac hil-casing-crc hil-spi-tec-dac hil-casing-all-zero
+            hil-opa548 hil-casing-low-resolution hil-casing-stuck hil-stop stop hil-calibration reload
             hil-compensation hil-crash-safe-off crash-restart output-refused seccomp-kill)
 modprobe cuse 2>/dev/null
 modprobe wire 2>/dev/null
@@ -454,29 +454,8 @@ else
     "$(unit_log "$c" | grep -v '^[0-9]' | tail -8)"
 fi
 
-c=$(mark)
-emu_mark opa548
-emu fault opa548-shutdown on >/dev/null
-sleep 6
-off=$(report safe --config "$CONF" --after-mark opa548 --from-event fault:opa548-shutdown --within $((2 * period)))
-off_ok=$?
-emu fault opa548-shutdown off >/dev/null
-resumed=""
-wait_for 45 sh -c "gyrotc-emu report safe --log $EMU_LOG --config $CONF --after-mark opa548 --resume-within 45 >/dev/null" &&
-  resumed=$(report safe --config "$CONF" --after-mark opa548 --resume-within 45)
-# The TEC stays off for the cooldown: from safe to driving again >= cooldown - one period.
-off_for=$(awk -v r="$resumed" 'BEGIN { n = split(r, w, " "); for (i = 1; i <= n; ++i) { if (w[i] == "both") s = w[i + 2]; if (w[i] == "again") d = w[i + 2] } print d - s }')
-line=$(fault_line "$c" opa548_thermal)
-if [ "$off_ok" -eq 0 ] && [ -n "$resumed" ] && [ -n "$line" ] &&
-   awk -v o="$off_for" -v c="$cooldown" -v p="$period" 'BEGIN { exit !(o >= c - p) }'; then
-  pass hil-opa548 "thermal shutdown (E/S pulled low, seen on es_sense): $off; journal '$line'; TEC off for ${off_for} s (cooldown ${cooldown} s), then ${resumed##*; }"
-else
-  fail hil-opa548 "shutdown: $off; afterwards: ${resumed:-no drive within 45 s} (off for '${off_for}' s, cooldown $cooldown s); journal '${line:-no fault opa548_thermal line}'" \
-    "$(unit_log "$c" | grep -v '^[0-9]' | tail -8)"
-fi
-
 # DRDY stops: the rate output goes invalid (mid-scale) and the temperature loop
-# holds on, from a settled start (the faults above left the TEC off a while).
+# holds on, from a settled start (the sensor's loss above left the TEC off a while).
 emu_mark adc-settle
 for _ in $(seq 1 60); do report settle --after-mark adc-settle --setpoint 55 --band 0.3 --hold 10 >/dev/null && break; sleep 2; done
 c=$(mark)
@@ -662,6 +641,30 @@ sensor_limit=$(((stale + 1) * period))
 off_fault hil-casing-crc temp_stale $sensor_limit "casing DS18B20 failing every CRC" "fault casing crc" "fault casing none" fault:casing_sensor
 off_fault hil-spi-tec-dac tec_write_failed $((2 * period)) "TEC DAC's SPI fails every transfer (EIO)" "fault spi-error tec_dac on" "fault spi-error tec_dac off" fault:spi-error-tec_dac --es-only
 off_fault hil-casing-all-zero temp_stale $sensor_limit "casing DS18B20 all-zero scratchpad (bus held low)" "fault casing all-zero" "fault casing none" fault:casing_sensor
+
+# The OPA548's thermal shutdown: the TEC off at once and for the cooldown, then
+# driving again. It runs in the time the next check must wait for temp_stale's
+# journal window (quiet_window) and needs no settled start.
+c=$(mark)
+emu_mark opa548
+emu fault opa548-shutdown on >/dev/null
+sleep 6
+off=$(report safe --config "$CONF" --after-mark opa548 --from-event fault:opa548-shutdown --within $((2 * period)))
+off_ok=$?
+emu fault opa548-shutdown off >/dev/null
+resumed=""
+wait_for 45 sh -c "gyrotc-emu report safe --log $EMU_LOG --config $CONF --after-mark opa548 --resume-within 45 >/dev/null" &&
+  resumed=$(report safe --config "$CONF" --after-mark opa548 --resume-within 45)
+# The TEC stays off for the cooldown: from safe to driving again >= cooldown - one period.
+off_for=$(awk -v r="$resumed" 'BEGIN { n = split(r, w, " "); for (i = 1; i <= n; ++i) { if (w[i] == "both") s = w[i + 2]; if (w[i] == "again") d = w[i + 2] } print d - s }')
+line=$(fault_line "$c" opa548_thermal)
+if [ "$off_ok" -eq 0 ] && [ -n "$resumed" ] && [ -n "$line" ] &&
+   awk -v o="$off_for" -v c="$cooldown" -v p="$period" 'BEGIN { exit !(o >= c - p) }'; then
+  pass hil-opa548 "thermal shutdown (E/S pulled low, seen on es_sense): $off; journal '$line'; TEC off for ${off_for} s (cooldown ${cooldown} s), then ${resumed##*; }"
+else
+  fail hil-opa548 "shutdown: $off; afterwards: ${resumed:-no drive within 45 s} (off for '${off_for}' s, cooldown $cooldown s); journal '${line:-no fault opa548_thermal line}'" \
+    "$(unit_log "$c" | grep -v '^[0-9]' | tail -8)"
+fi
 
 off_fault hil-casing-low-resolution temp_stale $sensor_limit "casing DS18B20 at 9 bits" "fault casing low-resolution" "fault casing none" fault:casing_sensor
 
