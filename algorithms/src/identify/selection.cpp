@@ -509,7 +509,8 @@ Trial try_candidate(const SelectionProblem& problem, const Criteria& criteria, c
 
   // Both models' held-out errors under the candidate's noise: under the
   // current model's, the wander that holds a real effect's signal would track
-  // it in the held-out blocks too (docs/IDENTIFY.md, run 2).
+  // it in the held-out blocks too, and the effect would gain nothing there
+  // (docs/IDENTIFY.md, "Run 2 ... and what changed after it").
   const WanderNoise* noise = is_series(problem) ? &t.noise : nullptr;
   trial.after = held_out(problem, t.model, t.fit.theta, noise, scored);
   trial.before = held_out(problem, current.model, current.fit.theta, noise, scored);

@@ -453,9 +453,9 @@ EffectReadout gyro_readout(const GyroSetup& s, const std::string& effect,
   } else if (effect == "periodic_structure") {
     // The amplitude's joint Wald ratio (sine and cosine); the long-run
     // factor is the larger of the two columns'. Without it the best period of
-    // a record with none, the wander's largest excursion, was credited with
-    // the wander its refit then lacked (null records flagged at p = 4e-7,
-    // the sweep's run 4).
+    // a record with none, the wander's largest excursion, is credited with
+    // the wander its refit then lacks, and null records are flagged
+    // (docs/IDENTIFY.md, run 4).
     out.amplitude_index = col;
     out.second_amplitude_index = col + 1;
     const Eigen::Vector2d a(fit.beta(col), fit.beta(col + 1));
@@ -830,9 +830,9 @@ Identification identify_series(const SeriesRecord& record, SeriesTarget target,
     // makes a free draw of its full variance there; the record knows that
     // variance only from what the flexible bias curve leaves of the wander
     // within the segments, which falls short of it, and refitting the wander
-    // after the drift shrinks it further. On null records with a 1 h gap a
-    // drift was claimed at p down to 2e-9; on one, p = 4e-6 where the
-    // generator's true noise gives 0.004 (docs/IDENTIFY.md, run 2).
+    // after the drift shrinks it further: on null records with a gap a drift
+    // would be claimed that the generator's true noise does not support
+    // (docs/IDENTIFY.md, run 2).
     if (grid.gaps == 0) {
       problem.candidates.push_back("linear_drift");
     } else {

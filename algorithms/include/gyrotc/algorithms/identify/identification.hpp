@@ -38,8 +38,9 @@ struct Criteria {
   // structure is left, a question of evidence, not of size; a fixed
   // fraction of the whitened residual also asks more of a slow term, which
   // the noise filter partly predicts away (the rate squared: 0.8-1.9 % at
-  // p down to 1e-10). 3 chosen on development seeds: at 2 a periodic term
-  // on a gapped null passed at z = 2.9 (docs/IDENTIFY.md, run 9).
+  // p down to 1e-10). 3, not 2: at 2 a periodic term passes on a gapped
+  // record that has none (chosen on development seeds: docs/IDENTIFY.md,
+  // run 9).
   double min_heldout_z = 3.0;
   int min_folds_improved = 3;
   // Two passing candidates are reported as ambiguous when they are closer
