@@ -25,6 +25,8 @@
 //   tune_suite --quick                 nominal and four variants
 //   tune_suite --random N --seed S     N random combinations (default 20, seed 1)
 //   tune_suite --network N             N random network plants (default 12)
+//   tune_suite --ambient-step-c C      every identification experiment with the chamber
+//                                      stepping by C (simulate --profile tune's option)
 //   tune_suite --work DIR              records, plant and controller files (default /tmp/tune_suite)
 //   tune_suite --out DIR               plots (default docs/tuning)
 //   tune_suite --markdown FILE         the results section of FILE (between the
@@ -265,7 +267,7 @@ FrozenFigures frozen(const PlantParams& plant, const app::ControllerConfig& cont
   return f;
 }
 
-Outcome run_variant(const Variant& v, const std::string& dir) {
+Outcome run_variant(const Variant& v, const std::string& dir, double ambient_step_c) {
   Outcome o;
   o.variant = v;
   std::filesystem::create_directories(dir);
@@ -283,7 +285,8 @@ Outcome run_variant(const Variant& v, const std::string& dir) {
 
   // The identification experiment, recorded as the board records it.
   const std::string record_csv = dir + "/record.csv";
-  const auto experiment = app::simulate_tune_experiment(v.plant, kRoomC, kSampleRateHz, {}, v.configured_limit_a);
+  const auto experiment =
+      app::simulate_tune_experiment(v.plant, kRoomC, kSampleRateHz, {}, v.configured_limit_a, ambient_step_c);
   o.experiment_stuck_alarm = first_stuck(experiment.rows, 0.0) != nullptr;
   app::write_board_record_csv(experiment.rows, record_csv);
 
@@ -626,6 +629,9 @@ struct Options {
   int random = 20;
   int network = 12;
   unsigned seed = 1;
+  // The identification experiment's chamber step (app::tune_experiment_room):
+  // none, a still room, as `gyrotc simulate --profile tune` by default.
+  double ambient_step_c = 0.0;
   std::string work = "/tmp/tune_suite";
   std::string out = std::string(GYROTC_DATA_DIR) + "/../docs/tuning";
   std::string markdown = std::string(GYROTC_DATA_DIR) + "/../docs/TUNING.md";
@@ -689,7 +695,7 @@ int run(const Options& opt) {
     for (char& c : slug) {
       if (!std::isalnum(static_cast<unsigned char>(c)) && c != '.') c = '_';
     }
-    outcomes.push_back(run_variant(all[k], opt.work + "/" + std::to_string(k + 1) + "_" + slug));
+    outcomes.push_back(run_variant(all[k], opt.work + "/" + std::to_string(k + 1) + "_" + slug, opt.ambient_step_c));
     const Outcome& o = outcomes.back();
     std::fprintf(stderr,
                  "[%zu/%zu] %-32s t_min %5.0f | oracle %5.0f s %.3f C | observer %5.0f s %.3f C | pid %5.0f s %.3f "
@@ -752,6 +758,7 @@ int run(const Options& opt) {
   md << "<!-- tune_suite:begin (written by tools/tune_suite; do not edit by hand) -->\n";
   md << "Run: `tune_suite" << (opt.quick ? " --quick" : "") << " --random " << opt.random << " --network "
      << opt.network << " --seed " << opt.seed
+     << (opt.ambient_step_c != 0.0 ? " --ambient-step-c " + num(opt.ambient_step_c, "%g") : std::string())
      << "`, " << outcomes.size() << " variants, "
      << num(std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(), "%.0f") << " s.\n\n";
   md << "- Nominal plant: physical minimum " << num(nominal.minimum_s, "%.1f")
@@ -856,6 +863,8 @@ int main(int argc, char** argv) {
       o.network = std::atoi(value("--network").c_str());
     } else if (a == "--seed") {
       o.seed = static_cast<unsigned>(std::strtoul(value("--seed").c_str(), nullptr, 10));
+    } else if (a == "--ambient-step-c") {
+      o.ambient_step_c = std::atof(value("--ambient-step-c").c_str());
     } else if (a == "--work") {
       o.work = value("--work");
     } else if (a == "--out") {
@@ -870,8 +879,8 @@ int main(int argc, char** argv) {
       }
     } else {
       std::fprintf(stderr,
-                   "usage: tune_suite [--quick] [--random N] [--network N] [--seed S] [--work DIR] [--out DIR] "
-                   "[--markdown FILE] [--only NAME,NAME...]\n");
+                   "usage: tune_suite [--quick] [--random N] [--network N] [--seed S] [--ambient-step-c C] "
+                   "[--work DIR] [--out DIR] [--markdown FILE] [--only NAME,NAME...]\n");
       return 2;
     }
   }

@@ -49,7 +49,7 @@ cd loop_at(const Linear& p, const ThermalModel& m, const DesignSpec& spec, const
   const cd pid = k.kp + k.ki / (1.0 - zinv) + k.kd * (1.0 - zinv);
   const cd zoh = std::abs(w * t) < 1e-12 ? cd(1.0) : (1.0 - zinv) / cd(0.0, w * t);
   const cd delay = std::exp(cd(0.0, -w * (m.dead_time_s + 0.5 * spec.sensor_period_s)));
-  const cd lag = 1.0 / cd(1.0, w * m.sensor_lag_s);
+  const cd lag = (1.0 - m.sensor_ambient_share) / cd(1.0, w * m.sensor_lag_s);
   return pid * zoh * p.at(w) * delay * lag;
 }
 
@@ -124,11 +124,11 @@ LoopRun simulate_loop(const ThermalModel& m, const DesignSpec& spec, const PidGa
   control::IncrementalPid pid(params);
 
   const double dt = spec.sensor_period_s;
-  // The lagged casing temperature of the last few seconds, for the dead time.
+  // The lagged sensor input ((1 - q) Tc + q Ta) of the last few seconds, for the dead time.
   constexpr std::size_t kHistory = 32;
   std::array<double, kHistory> history{};
   ThermalState x{spec.room_c, spec.room_c};  // power-on: the unit at the room's temperature
-  double lagged = x.casing_c;
+  double lagged = m.steady_reading_c(x.casing_c, spec.room_c);
   history.fill(lagged);
   std::size_t head = 0;
   const double lag_decay = m.sensor_lag_s > 0.0 ? std::exp(-dt / m.sensor_lag_s) : 0.0;
@@ -169,7 +169,7 @@ LoopRun simulate_loop(const ThermalModel& m, const DesignSpec& spec, const PidGa
       next_ambient += spec.ambient_period_s;
     }
     if (t >= next_pid - 1e-9) {
-      // The reading: the lagged casing temperature dead_time_s ago, in DS18B20 steps.
+      // The reading: the lagged sensor input dead_time_s ago, in DS18B20 steps.
       const double back = delay_steps;
       const auto whole = static_cast<std::size_t>(back);
       const double frac = back - static_cast<double>(whole);
@@ -184,12 +184,13 @@ LoopRun simulate_loop(const ThermalModel& m, const DesignSpec& spec, const PidGa
       next_pid += spec.period_s;
     }
     x = step(m, x, command, ambient, dt);
-    lagged = m.sensor_lag_s > 0.0 ? lag_decay * lagged + (1.0 - lag_decay) * x.casing_c : x.casing_c;
+    const double followed_c = m.steady_reading_c(x.casing_c, ambient);
+    lagged = m.sensor_lag_s > 0.0 ? lag_decay * lagged + (1.0 - lag_decay) * followed_c : followed_c;
     head = (head + 1) % kHistory;
     history[head] = lagged;
 
     const double now = t + dt;
-    const double error = std::fabs(x.casing_c - spec.setpoint_c);
+    const double error = std::fabs(m.steady_reading_c(x.casing_c, ambient) - spec.setpoint_c);
     if (!std::isfinite(error)) {
       run.settle_s = -1.0;
       break;
@@ -214,7 +215,7 @@ LoopRun simulate_loop(const ThermalModel& m, const DesignSpec& spec, const PidGa
 
 double minimum_settle_s(const ThermalModel& m, const DesignSpec& spec) {
   ThermalState x{spec.room_c, spec.room_c};
-  const double target = spec.setpoint_c - spec.settle_band_c;
+  const double target = m.casing_for_reading_c(spec.setpoint_c - spec.settle_band_c, spec.room_c);
   constexpr double kStepS = 0.5;
   for (double t = 0.0; t < 3.0 * 3600.0; t += kStepS) {
     const ThermalState next = step(m, x, spec.max_a, spec.room_c, kStepS);

@@ -13,6 +13,12 @@ namespace {
 // taken as part of the sensor's lag (a first-order stand-in for a delay).
 double excess_dead_time_s(const ThermalModel& m) { return std::max(0.0, m.dead_time_s - 1.25); }
 
+// The band of ambients the loop is judged on (seed Section 6.2), and a
+// current limit beyond any stage's for the holding current's search there.
+constexpr double kHeldBandLowC = -20.0;
+constexpr double kHeldBandHighC = 35.0;
+constexpr double kHoldLimitA = 10.0;
+
 // A lag shorter than this is the casing's own reading.
 constexpr double kLeastLagS = 1.0;
 // The lag node's capacity per the casing's: its heat is a rounding error.
@@ -38,12 +44,17 @@ control::HousingModel identified_housing(const ThermalModel& m, double current_l
   n.tec_to = 0;
   n.gyro_node = 0;
   n.casing_sensor = model::NetworkSensor{0, excess_dead_time_s(m), 0.0, 0.0};
-  if (m.sensor_lag_s > kLeastLagS) {
+  if (m.sensor_lag_s > kLeastLagS || m.sensor_ambient_share > 0.0) {
     // The identified lag as a node of its own between the casing and the
     // sensor (a capacity too small to draw heat from the casing), the dead
-    // time as the sensor's own lag behind it: the loop holds that node.
+    // time as the sensor's own lag behind it: the loop holds that node. The
+    // node's links share its time constant as the sensor's input does:
+    // (1 - q) to the casing, q to the ambient (thermal_model.hpp).
+    const double lag_s = std::max(m.sensor_lag_s, kLeastLagS);
+    const double q = m.sensor_ambient_share;
     n.nodes.push_back({"sensor node", kLagNodeCapacity, 0.0});
-    n.links.push_back({0, 2, kLagNodeCapacity / m.sensor_lag_s});
+    n.links.push_back({0, 2, (1.0 - q) * kLagNodeCapacity / lag_s});
+    if (q > 0.0) n.links.push_back({2, model::kAmbientNode, q * kLagNodeCapacity / lag_s});
     n.casing_sensor.node = 2;
   }
   n.ambient_sensor = model::NetworkSensor{model::kAmbientNode, 0.0, 0.0, 0.0};
@@ -62,9 +73,19 @@ control::ObserverLoopSpec identified_observer_spec(const ThermalFit& fit, double
     if (e.name == "internal_k_per_s") heat_se = e.std_error;
   }
   // A heat the record pins down closely is still a heat the model may get
-  // wrong as the ambient moves: at least 1 % of what the TEC's Peltier term
-  // moves at 1 A at the setpoint.
-  heat_se = std::max(heat_se, 0.01 * fit.model.peltier_per_a_s * (setpoint_c + kKelvin));
+  // wrong as the ambient moves: at least the uncertainty of the heat the TEC
+  // must give to hold the setpoint at either end of the band the loop is
+  // judged on (seed Section 6.2), from the fit's covariance.
+  if (fit.covariance.rows() > 0) {
+    for (const double ambient_c : {kHeldBandLowC, kHeldBandHighC}) {
+      const double i = holding_current_a(fit.model, setpoint_c, ambient_c, kHoldLimitA);
+      if (!std::isfinite(i)) continue;
+      const double current_se = std_error_of(
+          fit, [&](const ThermalModel& m) { return holding_current_a(m, setpoint_c, ambient_c, kHoldLimitA); });
+      const double gain = casing_gain_k_per_a_s(fit.model, steady_state(fit.model, i, ambient_c), i);
+      if (std::isfinite(current_se)) heat_se = std::max(heat_se, current_se * gain);
+    }
+  }
   // The readings' own noise: the fit's white residual less the steps'
   // rounding (a uniform error of one step), which the filter takes as such.
   const double rounding_var = spec.reading_step_c * spec.reading_step_c / 12.0;

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <functional>
 #include <limits>
+#include <optional>
 #include <span>
 #include <stdexcept>
 #include <string>
@@ -69,6 +70,17 @@ constexpr double kMaxGapS = 30.0;
 constexpr double kMinCurrentRangeA = 0.05;
 constexpr double kMinTemperatureRangeC = 0.5;
 constexpr double kMaxShareAtLimit = 0.8;
+// The sensor's share of the ambient is searched only when the record's
+// ambient moved at least this much: against a still room it is one more
+// static gain, which the heat rates already are.
+constexpr double kMinAmbientRangeForShareC = 3.0;
+// Where its search starts: a sensor on a lid or a board with a few percent of
+// its conductance to the room (inside the bounds, where the search can move
+// either way).
+constexpr double kShareGuess = 0.02;
+// The first part of a record whose room moved: the identification
+// experiment's warm-up and relay, before a chamber's step (2710 s of ~6500).
+constexpr double kFirstPartShare = 0.4;
 constexpr double kMinPeltierTRatio = 3.0;
 // The DS18B20's 1/16 C step as noise: variance step^2 / 12.
 constexpr double fit_quantisation_var() { return 0.0625 * 0.0625 / 12.0; }
@@ -80,8 +92,29 @@ constexpr double kNoRailA = 50.0;
 // The parameter vector theta (what the fit searches).
 enum Index : std::size_t {
   kLogPeltier, kLogJoule, kLogLoss, kLogShellRatio, kLogShellTau, kRestRise, kDelay, kLagShare,
-  kLogRail, kCasing0, kShell0, kAmbient, kCount
+  kLogRail, kCasing0, kShell0, kAmbientShare, kAmbient, kCount
 };
+
+// The parameters a search moves: the constant ambient only without an
+// ambient column, the sensor's share of the ambient only with one and when
+// asked (against a constant ambient that share is one more static offset,
+// which the loss and the internal heat already are).
+std::vector<std::size_t> searched_parameters(bool ambient_measured, bool sensor_share) {
+  std::vector<std::size_t> idx;
+  for (std::size_t j = 0; j < kCount; ++j) {
+    if (j == kAmbient && ambient_measured) continue;
+    if (j == kAmbientShare && !(ambient_measured && sensor_share)) continue;
+    idx.push_back(j);
+  }
+  return idx;
+}
+
+// The sensor's share of the ambient joins the model when the record asks for
+// it: Schwarz's criterion over the residual's effective samples (the rows are
+// correlated, and every row counted would take any small gain).
+bool share_improves_fit(double sse_without, double sse_with, double effective_samples) {
+  return effective_samples * std::log(sse_with / sse_without) + std::log(effective_samples) < 0.0;
+}
 
 // Parameters the data pin down each on their own (strongly correlated pairs
 // make the search crawl): the internal heat as the casing's rise above the
@@ -101,6 +134,7 @@ ThermalModel model_of(const std::vector<double>& th) {
   m.internal_k_per_s = th[kRestRise] * m.loss_per_s;
   m.sensor_lag_s = th[kLagShare] * th[kDelay];
   m.dead_time_s = th[kDelay] - m.sensor_lag_s;
+  m.sensor_ambient_share = th[kAmbientShare];
   m.rail_a = std::exp(th[kLogRail]) + kRailReferenceK * m.rail_a_per_c();
   return m;
 }
@@ -334,13 +368,39 @@ ThermalFit identify_thermal(const TuneRecord& record, double experiment_scale) {
   double max_command = 0.0;
   for (double i : record.tec_a) max_command = std::max(max_command, std::fabs(i));
 
+  double ambient_range_c = 0.0;
+  if (ambient_measured) {
+    const auto [amin, amax] = std::minmax_element(ambient.begin(), ambient.end());
+    ambient_range_c = *amax - *amin;
+  }
+  const bool share_searched = ambient_range_c >= kMinAmbientRangeForShareC;
+  bool share_fitted = false;
+
   identify::SeparableModel model;
-  const std::size_t k_params = ambient_measured ? kAmbient : kCount;
-  model.theta_lower.assign(k_params, 0.0);
-  model.theta_upper.assign(k_params, 0.0);
+  // A search runs on the searched parameters (searched_parameters): first
+  // without the sensor's share of the ambient, then, where the room moved,
+  // with it (below). Every index below kAmbientShare is the same in the full
+  // and the searched vectors.
+  std::vector<std::size_t> searched = searched_parameters(ambient_measured, false);
+  std::vector<double> full_lower(kCount, 0.0);
+  std::vector<double> full_upper(kCount, 0.0);
   auto bound = [&](std::size_t j, double lo, double hi) {
-    model.theta_lower[j] = lo;
-    model.theta_upper[j] = hi;
+    full_lower[j] = lo;
+    full_upper[j] = hi;
+  };
+  // The full vector (the constant ambient at the first guess's when measured,
+  // the sensor's share 0 when not) and the searched one.
+  const double ambient_guess = guesses.front()[kAmbient];
+  auto expand = [&](const std::vector<double>& reduced) {
+    std::vector<double> full(kCount, 0.0);
+    full[kAmbient] = ambient_guess;
+    for (std::size_t j = 0; j < searched.size(); ++j) full[searched[j]] = reduced[j];
+    return full;
+  };
+  auto reduce = [&](const std::vector<double>& full) {
+    std::vector<double> reduced(searched.size());
+    for (std::size_t j = 0; j < searched.size(); ++j) reduced[j] = full[searched[j]];
+    return reduced;
   };
   bound(kLogPeltier, std::log(1e-6), std::log(1e-1));
   bound(kLogJoule, std::log(1e-6), std::log(10.0));
@@ -353,21 +413,39 @@ ThermalFit identify_thermal(const TuneRecord& record, double experiment_scale) {
   bound(kLogRail, std::log(0.02), std::log(kNoRailA));
   bound(kCasing0, record.sensor_c.front() - 5.0, record.sensor_c.front() + 5.0);
   bound(kShell0, record.sensor_c.front() - 20.0, record.sensor_c.front() + 20.0);
-  if (!ambient_measured) bound(kAmbient, *tmin - 60.0, *tmax + 10.0);
-  for (auto& guess : guesses) {
-    for (std::size_t j = 0; j < k_params; ++j) guess[j] = std::clamp(guess[j], model.theta_lower[j], model.theta_upper[j]);
-  }
+  bound(kAmbientShare, 0.0, 0.5);
+  bound(kAmbient, *tmin - 60.0, *tmax + 10.0);
+  auto use_parameters = [&](bool sensor_share) {
+    searched = searched_parameters(ambient_measured, sensor_share);
+    model.theta_lower = reduce(full_lower);
+    model.theta_upper = reduce(full_upper);
+  };
+  use_parameters(false);
+  // The first guesses as the current search's vectors, within its bounds.
+  auto searched_guesses = [&]() {
+    std::vector<std::vector<double>> out;
+    for (std::vector<double> guess : guesses) {
+      guess[kAmbientShare] = kShareGuess;
+      guess = reduce(guess);
+      for (std::size_t j = 0; j < searched.size(); ++j) {
+        guess[j] = std::clamp(guess[j], model.theta_lower[j], model.theta_upper[j]);
+      }
+      out.push_back(std::move(guess));
+    }
+    return out;
+  };
 
   std::vector<double> scratch(n);
   std::vector<double> constant_ambient(n);
   model.evaluate = [&](const std::vector<double>& th, Eigen::MatrixXd& design, Eigen::VectorXd& offset) {
     design.resize(static_cast<Eigen::Index>(n), 0);
     offset.resize(static_cast<Eigen::Index>(n));
-    const ThermalModel m = model_of(th);
-    const ThermalState x0{th[kCasing0], th[kShell0]};
+    const std::vector<double> full = expand(th);
+    const ThermalModel m = model_of(full);
+    const ThermalState x0{full[kCasing0], full[kShell0]};
     const std::vector<double>* amb = &ambient;
     if (!ambient_measured) {
-      std::fill(constant_ambient.begin(), constant_ambient.end(), th[kAmbient]);
+      std::fill(constant_ambient.begin(), constant_ambient.end(), full[kAmbient]);
       amb = &constant_ambient;
     }
     simulate_sensor(m, x0, record.time_s, record.tec_a, *amb, std::span<double>(offset.data(), n), scratch);
@@ -398,14 +476,13 @@ ThermalFit identify_thermal(const TuneRecord& record, double experiment_scale) {
   // guess cannot see the shell).
   auto at_typical_shell = [&](const std::vector<double>& guess) {
     std::vector<double> th = guess;
-    th.resize(k_params);
     th[kLogShellRatio] = std::log(5.0);
     th[kLogShellTau] = std::log(80.0);
     return th;
   };
   auto search = [&](const std::vector<double>& start) {
     const std::vector<double> base = at_typical_shell(start);
-    const double rail_guess = model_of(start).rail_a;
+    const double rail_guess = model_of(expand(start)).rail_a;
     const double rail_scale = rail_guess < 0.9 * kNoRailA ? rail_guess : std::max(0.05, max_command);
     std::vector<double> best_rail = base;
     std::vector<double> best_none = base;
@@ -472,59 +549,120 @@ ThermalFit identify_thermal(const TuneRecord& record, double experiment_scale) {
     }
     return sf;
   };
-  // From the unshifted guess first; when that fit stays above the
-  // quantisation floor, from the shifted guess whose simulation follows the
-  // record best (a sensor lagging its node by seconds), keeping the better.
-  identify::SeparableFit sf = search(guesses.front());
-  if (sf.sse >= good_sse && guesses.size() > 1) {
-    std::size_t best = 1;
-    double best_sse = std::numeric_limits<double>::infinity();
-    for (std::size_t g = 1; g < guesses.size(); ++g) {
-      const double sse = sse_of(at_typical_shell(guesses[g]));
-      if (sse < best_sse) {
-        best_sse = sse;
-        best = g;
+  // A record whose room moved (a chamber's step, app::tune_experiment_room,
+  // after the warm-up and the relay): the fit of its first part alone, a
+  // start for the whole record's when that search stays above the floor (the
+  // room's step excites what the first guesses' heat balance does not hold,
+  // e.g. an ambient sensor on the heat sink). Computed only when needed.
+  std::optional<std::vector<double>> still_room_fit;
+  bool still_room_tried = false;
+  auto fit_first_part = [&]() {
+    still_room_tried = true;
+    std::size_t k = 0;
+    while (k < n && record.time_s[k] - record.time_s.front() < kFirstPartShare * (record.time_s.back() - record.time_s.front())) ++k;
+    if (record.time_s[k] - record.time_s.front() >= kMinDurationS * experiment_scale) {
+      TuneRecord head;
+      head.time_s.assign(record.time_s.begin(), record.time_s.begin() + static_cast<std::ptrdiff_t>(k));
+      head.sensor_c.assign(record.sensor_c.begin(), record.sensor_c.begin() + static_cast<std::ptrdiff_t>(k));
+      head.tec_a.assign(record.tec_a.begin(), record.tec_a.begin() + static_cast<std::ptrdiff_t>(k));
+      head.ambient_c.assign(ambient.begin(), ambient.begin() + static_cast<std::ptrdiff_t>(k));
+      try {
+        still_room_fit = identify_thermal(head, experiment_scale).theta;
+      } catch (const std::invalid_argument&) {
+        // That part alone is not enough (e.g. no excitation yet): no such start.
       }
     }
-    identify::SeparableFit shifted = search(guesses[best]);
-    if (shifted.sse < sf.sse) sf = std::move(shifted);
-  }
-  if (sf.sse >= good_sse) {
-    // Still above the floor: the heat balance of the best fit so far, its
-    // shell and sensor set afresh on a grid of shells and a ladder of sensor
-    // lags (a slow shell standing in for a lagging sensor is a basin the
-    // searches above can end in), Levenberg-Marquardt from the best four.
-    struct Restart {
-      std::vector<double> theta;
-      double sse;
-    };
-    std::vector<Restart> restarts;
-    for (double ratio : {1.0, 5.0, 25.0}) {
-      for (double tau : {20.0, 80.0, 300.0}) {
-        for (double lag_s : {3.0, 6.0, 10.0, 15.0, 22.0, 32.0, 45.0, 65.0}) {
-          std::vector<double> th = sf.theta;
-          th[kLogShellRatio] = std::log(ratio);
-          th[kLogShellTau] = std::log(tau);
-          th[kLagShare] = 0.9;
-          th[kDelay] = lag_s / 0.9;
-          restarts.push_back({th, sse_of(th)});
+  };
+
+  // The whole search for the current parameters. From the unshifted guess
+  // first; when that fit stays above the quantisation floor, from the
+  // shifted guess whose simulation follows the record best (a sensor lagging
+  // its node by seconds), keeping the better.
+  auto full_search = [&]() {
+    const std::vector<std::vector<double>> starts = searched_guesses();
+    identify::SeparableFit sf = search(starts.front());
+    if (sf.sse >= good_sse && starts.size() > 1) {
+      std::size_t best = 1;
+      double best_sse = std::numeric_limits<double>::infinity();
+      for (std::size_t g = 1; g < starts.size(); ++g) {
+        const double sse = sse_of(at_typical_shell(starts[g]));
+        if (sse < best_sse) {
+          best_sse = sse;
+          best = g;
         }
       }
+      identify::SeparableFit shifted = search(starts[best]);
+      if (shifted.sse < sf.sse) sf = std::move(shifted);
     }
-    std::sort(restarts.begin(), restarts.end(), [](const Restart& a, const Restart& b) { return a.sse < b.sse; });
-    for (std::size_t k = 0; k < 4 && sf.sse >= good_sse; ++k) {
-      model.theta_grid = {restarts[k].theta};
+    if (sf.sse >= good_sse) {
+      // Still above the floor: the heat balance of the best fit so far, its
+      // shell and sensor set afresh on a grid of shells and a ladder of sensor
+      // lags (a slow shell standing in for a lagging sensor is a basin the
+      // searches above can end in), Levenberg-Marquardt from the best four.
+      struct Restart {
+        std::vector<double> theta;
+        double sse;
+      };
+      std::vector<Restart> restarts;
+      for (double ratio : {1.0, 5.0, 25.0}) {
+        for (double tau : {20.0, 80.0, 300.0}) {
+          for (double lag_s : {3.0, 6.0, 10.0, 15.0, 22.0, 32.0, 45.0, 65.0}) {
+            std::vector<double> th = sf.theta;
+            th[kLogShellRatio] = std::log(ratio);
+            th[kLogShellTau] = std::log(tau);
+            th[kLagShare] = 0.9;
+            th[kDelay] = lag_s / 0.9;
+            restarts.push_back({th, sse_of(th)});
+          }
+        }
+      }
+      std::sort(restarts.begin(), restarts.end(), [](const Restart& a, const Restart& b) { return a.sse < b.sse; });
+      for (std::size_t k = 0; k < 4 && sf.sse >= good_sse; ++k) {
+        model.theta_grid = {restarts[k].theta};
+        identify::SeparableFit f = identify::fit_separable(y, model);
+        if (f.sse < sf.sse) sf = std::move(f);
+      }
+    }
+    if (sf.sse >= good_sse && share_searched && !still_room_tried) fit_first_part();
+    if (sf.sse >= good_sse && still_room_fit) {
+      std::vector<double> th = *still_room_fit;
+      th[kAmbientShare] = kShareGuess;
+      model.theta_grid = {reduce(th)};
       identify::SeparableFit f = identify::fit_separable(y, model);
       if (f.sse < sf.sse) sf = std::move(f);
+    }
+    return sf;
+  };
+
+  identify::SeparableFit sf = full_search();
+  if (share_searched) {
+    // With the sensor's share of the ambient: the whole search again, and
+    // Levenberg-Marquardt from the fit without it; the better of the two
+    // stays if it earns its place (share_improves_fit).
+    std::vector<double> from_without = expand(sf.theta);
+    from_without[kAmbientShare] = kShareGuess;
+    use_parameters(true);
+    identify::SeparableFit with = full_search();
+    model.theta_grid = {reduce(from_without)};
+    identify::SeparableFit refined = identify::fit_separable(y, model);
+    if (refined.sse < with.sse) with = std::move(refined);
+    const std::vector<double> residual_with(with.residual.data(), with.residual.data() + n);
+    const double effective = identify::effective_sample_size(n, identify::lag1_autocorrelation(residual_with));
+    if (share_improves_fit(sf.sse, with.sse, effective)) {
+      sf = std::move(with);
+      share_fitted = true;
+    } else {
+      use_parameters(false);
     }
   }
 
   ThermalFit fit;
-  fit.theta = sf.theta;
-  fit.theta.resize(kCount, guesses.front()[kAmbient]);
+  fit.theta = expand(sf.theta);
   fit.model = model_of(fit.theta);
   fit.initial = {fit.theta[kCasing0], fit.theta[kShell0]};
   fit.ambient_measured = ambient_measured;
+  fit.ambient_range_c = ambient_range_c;
+  fit.sensor_share_fitted = share_fitted;
   fit.ambient_c = ambient_measured ? ambient.front() : fit.theta[kAmbient];
   fit.samples = n;
   fit.duration_s = record.time_s.back() - record.time_s.front();
@@ -561,8 +699,15 @@ ThermalFit identify_thermal(const TuneRecord& record, double experiment_scale) {
       0.0, hac_covariance(jacobian, sf.residual, sf.covariance_unscaled, hac_bandwidth(residual, fit.lag1_autocorrelation))(
                kLogPeltier, kLogPeltier)));
   fit.covariance = Eigen::MatrixXd::Zero(kCount, kCount);
-  fit.covariance.topLeftCorner(static_cast<Eigen::Index>(k_params), static_cast<Eigen::Index>(k_params)) =
-      noise_covariance(jacobian, sf.covariance_unscaled, fit.noise);
+  {
+    const Eigen::MatrixXd searched_covariance = noise_covariance(jacobian, sf.covariance_unscaled, fit.noise);
+    for (std::size_t i = 0; i < searched.size(); ++i) {
+      for (std::size_t j = 0; j < searched.size(); ++j) {
+        fit.covariance(static_cast<Eigen::Index>(searched[i]), static_cast<Eigen::Index>(searched[j])) =
+            searched_covariance(static_cast<Eigen::Index>(i), static_cast<Eigen::Index>(j));
+      }
+    }
+  }
 
   auto sd = [&](std::size_t j) { return std::sqrt(std::max(0.0, fit.covariance(static_cast<Eigen::Index>(j),
                                                                                static_cast<Eigen::Index>(j)))); };
@@ -597,6 +742,9 @@ ThermalFit identify_thermal(const TuneRecord& record, double experiment_scale) {
       derived_estimate("dead_time_s", "s", [](const ThermalModel& m) { return m.dead_time_s; }, 5.0));
   fit.estimates.push_back(
       derived_estimate("sensor_lag_s", "s", [](const ThermalModel& m) { return m.sensor_lag_s; }, 20.0));
+  if (share_fitted) {
+    fit.estimates.push_back(plain_estimate("sensor_ambient_share", "", kAmbientShare, 0.1));
+  }
   // The rail shows only if a command reached it somewhere.
   {
     const ThermalModel& m = fit.model;
@@ -642,7 +790,8 @@ ThermalFit identify_thermal(const TuneRecord& record, double experiment_scale) {
 double std_error_of(const ThermalFit& fit, const std::function<double(const ThermalModel&)>& f) {
   const double f0 = f(fit.model);
   Eigen::VectorXd grad = Eigen::VectorXd::Zero(kCount);
-  for (std::size_t j = kLogPeltier; j <= kLogRail; ++j) {
+  for (std::size_t j = kLogPeltier; j <= kAmbientShare; ++j) {
+    if (j == kCasing0 || j == kShell0) continue;
     const double sd = std::sqrt(std::max(0.0, fit.covariance(static_cast<Eigen::Index>(j), static_cast<Eigen::Index>(j))));
     if (!(sd > 0.0) || !std::isfinite(sd)) continue;
     std::vector<double> th = fit.theta;

@@ -67,6 +67,14 @@ double ThermalModel::shell_ambient_per_s() const noexcept {
 
 double ThermalModel::rail_a_per_c() const noexcept { return peltier_per_a_s / (2.0 * joule_k_per_a2_s); }
 
+double ThermalModel::steady_reading_c(double casing_c, double ambient_c) const noexcept {
+  return (1.0 - sensor_ambient_share) * casing_c + sensor_ambient_share * ambient_c;
+}
+
+double ThermalModel::casing_for_reading_c(double reading_c, double ambient_c) const noexcept {
+  return (reading_c - sensor_ambient_share * ambient_c) / (1.0 - sensor_ambient_share);
+}
+
 ThermalMatrix thermal_matrix(const ThermalModel& m, double i, double ambient_c) noexcept {
   return matrix(coefficients(m), i, ambient_c);
 }
@@ -109,9 +117,10 @@ bool stable_at(const ThermalModel& m, double i) noexcept {
 
 }  // namespace
 
-double holding_current_a(const ThermalModel& m, double casing_c, double ambient_c, double limit_a) noexcept {
+double holding_current_a(const ThermalModel& m, double reading_c, double ambient_c, double limit_a) noexcept {
   const double nan = std::numeric_limits<double>::quiet_NaN();
   if (!(limit_a > 0.0)) return nan;
+  const double casing_c = m.casing_for_reading_c(reading_c, ambient_c);
   auto excess = [&](double i) { return steady_state(m, i, ambient_c).casing_c - casing_c; };
   // Walk from 0 A towards heating or cooling until the steady casing
   // temperature passes the target; stop where the balance runs away or (when
@@ -149,11 +158,11 @@ void simulate_sensor(const ThermalModel& m, const ThermalState& initial, std::sp
                      std::span<double> sensor_c, std::span<double> scratch) noexcept {
   const std::size_t n = time_s.size();
   if (n == 0) return;
-  // Lagged casing temperature at every record time (exact for a casing
-  // temperature moving linearly over the step).
+  // What the sensor's lag follows, (1 - q) Tc + q Ta, lagged at every record
+  // time (exact for an input moving linearly over the step).
   const Coefficients c = coefficients(m);
   ThermalState x = initial;
-  scratch[0] = x.casing_c;
+  scratch[0] = m.steady_reading_c(x.casing_c, ambient_c[0]);
   const double tau = m.sensor_lag_s;
   double last_h = -1.0;
   double decay = 0.0;
@@ -161,12 +170,13 @@ void simulate_sensor(const ThermalModel& m, const ThermalState& initial, std::sp
   for (std::size_t j = 1; j < n; ++j) {
     const double h_s = time_s[j] - time_s[j - 1];
     const double ta = 0.5 * (ambient_c[j - 1] + ambient_c[j]);
-    const double before_c = x.casing_c;
+    const double before_c = m.steady_reading_c(x.casing_c, ambient_c[j - 1]);
     const int steps = std::max(1, static_cast<int>(std::ceil(h_s / kMaxStepS - 1e-9)));
     const double h = h_s / steps;
     for (int s = 0; s < steps; ++s) x = trapezoid(matrix(c, applied(c, x, command_a[j - 1]), ta), x, h);
+    const double after_c = m.steady_reading_c(x.casing_c, ambient_c[j]);
     if (tau <= 0.0) {
-      scratch[j] = x.casing_c;
+      scratch[j] = after_c;
       continue;
     }
     if (h_s != last_h) {
@@ -174,9 +184,9 @@ void simulate_sensor(const ThermalModel& m, const ThermalState& initial, std::sp
       decay = std::exp(-h_s / tau);
       ramp = 1.0 - tau / h_s * (1.0 - decay);
     }
-    scratch[j] = decay * scratch[j - 1] + (1.0 - decay) * before_c + (x.casing_c - before_c) * ramp;
+    scratch[j] = decay * scratch[j - 1] + (1.0 - decay) * before_c + (after_c - before_c) * ramp;
   }
-  // The dead time: the reading at t is the lagged casing at t - d.
+  // The dead time: the reading at t is the lag's output at t - d.
   const double d = m.dead_time_s;
   std::size_t i = 0;
   for (std::size_t j = 0; j < n; ++j) {

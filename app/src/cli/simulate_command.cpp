@@ -40,6 +40,7 @@ namespace {
 struct SimulateOptions {
   std::string profile = "fig26";
   double ambient_c = 16.0;  // --profile tune: the room's temperature
+  double ambient_step_c = 0.0;  // --profile tune: the chamber's step (tune_experiment_room)
   double experiment_scale = 1.0;  // --profile tune: tune::ExperimentPlan::scaled
   std::string controller = "paper";
   std::string plant;
@@ -357,9 +358,15 @@ void print_text(const nlohmann::json& j, const std::optional<std::string>& csv,
                 e["asked_high_c"].get<double>(), held("dwell_low_s", "settled_low").c_str(),
                 held("dwell_high_s", "settled_high").c_str(), j["record"].get<std::string>().c_str());
   } else if (j.contains("record")) {
-    std::printf("  identification experiment: %.0f s at %.1f C ambient%s; record for `gyrotc tune`: %s\n",
-                j["experiment"]["duration_s"].get<double>(), j["experiment"]["ambient_c"].get<double>(),
-                j["experiment"]["finished"].get<bool>() ? "" : " (did not finish)",
+    const nlohmann::json& e = j["experiment"];
+    const double step_c = e["ambient_step_c"].get<double>();
+    const std::string chamber =
+        step_c == 0.0 ? num(e["ambient_c"], "%.1f") + " C ambient"
+                      : num(e["ambient_c"], "%.1f") + " C ambient, stepped to " +
+                            num(nlohmann::json(e["ambient_c"].get<double>() + step_c), "%.1f") + " C from " +
+                            num(e["ambient_step_at_s"], "%.0f") + " s";
+    std::printf("  identification experiment: %.0f s at %s%s; record for `gyrotc tune`: %s\n",
+                e["duration_s"].get<double>(), chamber.c_str(), e["finished"].get<bool>() ? "" : " (did not finish)",
                 j["record"].get<std::string>().c_str());
   }
   if (csv) std::printf("  time series (1 Hz CSV): %s\n", csv->c_str());
@@ -396,7 +403,7 @@ void run(const SimulateOptions& o) {
   const calibrate::SweepPlan sweep_plan = calibrate::plan_below_over_temp(setup.controller.limits.over_temp_c);
   const calibrate::SweepRange sweep_range = sweep_plan.range(o.ambient_c, setup.controller.setpoint_c);
   const model::ChamberProfile profile =
-      tune_experiment ? tune_experiment_room(o.ambient_c, plan)
+      tune_experiment ? tune_experiment_room(o.ambient_c, plan, o.ambient_step_c)
       : selfcal       ? model::ChamberProfile({{"selfcal", 0.0, 2.0 * sweep_plan.max_duration_s(sweep_range),
                                                 o.ambient_c, o.ambient_c}})
                       : chamber_profile_by_name(o.profile, data_dir());
@@ -456,6 +463,8 @@ void run(const SimulateOptions& o) {
   j["calibration_die_lag_s"] = setup.die_lag_s;
   if (tune_experiment) {
     j["experiment"] = {{"ambient_c", o.ambient_c},
+                       {"ambient_step_c", o.ambient_step_c},
+                       {"ambient_step_at_s", ambient_step_at_s(plan)},
                        {"duration_s", result.rows.empty() ? 0.0 : result.rows.back().time_s},
                        {"finished", program.phase() == tune::ExperimentPhase::done}};
   }
@@ -525,6 +534,12 @@ void add_simulate_command(CLI::App& app) {
                   "--profile tune and selfcal: the room's (chamber's) constant temperature")
       ->check(CLI::Range(-40.0, 80.0))
       ->capture_default_str();
+  cmd->add_option("--ambient-step-c", options->ambient_step_c,
+                  "--profile tune: the chamber steps the ambient by this much (at 1 C/min) once the unit is held "
+                  "near the setpoint, so that tune sees how the room reaches the casing sensor; 0: the room "
+                  "holds still (a bench without a chamber)")
+      ->check(CLI::Range(-40.0, 40.0))
+      ->capture_default_str();
   cmd->add_option("--experiment-scale", options->experiment_scale,
                   "--profile tune on a plant faster than the reference: every phase's length times this factor "
                   "(0 < F <= 1), as gyrotc record --experiment-scale")
@@ -571,6 +586,9 @@ void add_simulate_command(CLI::App& app) {
   cmd->callback([options, cmd] {
     if (cmd->count("--experiment-scale") > 0 && options->profile != "tune") {
       throw InputError("--experiment-scale: only with --profile tune");
+    }
+    if (cmd->count("--ambient-step-c") > 0 && options->profile != "tune") {
+      throw InputError("--ambient-step-c: only with --profile tune");
     }
     run(*options);
   });

@@ -33,11 +33,14 @@ std::string num(double v) {
 }
 
 // The identified housing's keys, each with its range (thermal_model.hpp).
+// An optional key keeps ThermalModel's default when absent (files written
+// before it existed).
 struct ModelKey {
   const char* key;
   double tune::ThermalModel::*field;
   double min;
   double max;
+  bool required = true;
 };
 constexpr ModelKey kModelKeys[] = {
     {"peltier_per_a_s", &tune::ThermalModel::peltier_per_a_s, 1e-12, 1.0},
@@ -48,6 +51,7 @@ constexpr ModelKey kModelKeys[] = {
     {"internal_k_per_s", &tune::ThermalModel::internal_k_per_s, -1.0, 1.0},
     {"dead_time_s", &tune::ThermalModel::dead_time_s, 0.0, 3600.0},
     {"sensor_lag_s", &tune::ThermalModel::sensor_lag_s, 0.0, 36000.0},
+    {"sensor_ambient_share", &tune::ThermalModel::sensor_ambient_share, 0.0, 0.9, false},
     {"rail_a", &tune::ThermalModel::rail_a, 1e-6, 1e6},
 };
 
@@ -103,7 +107,10 @@ ObserverLoopFile parse_observer(const toml::table& root, const std::string& name
   const toml::table* model_table = toml_section(root, "model", name);
   if (model_table == nullptr) throw InputError(name + ": [model] missing (type = \"observer\" is designed on it)");
   const TomlTable model(model_table, "model", name, names_in(kModelKeys));
-  for (const ModelKey& k : kModelKeys) o.model.*k.field = required(model, k.key, k.min, k.max);
+  for (const ModelKey& k : kModelKeys) {
+    double& value = o.model.*k.field;
+    value = k.required ? required(model, k.key, k.min, k.max) : model.number(k.key, value, k.min, k.max);
+  }
   const toml::table* observer_table = toml_section(root, "observer", name);
   if (observer_table == nullptr) throw InputError(name + ": [observer] missing (type = \"observer\" needs its noises)");
   const TomlTable t(observer_table, "observer", name, names_in(kSpecKeys));

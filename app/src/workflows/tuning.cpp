@@ -166,6 +166,13 @@ TuneResult tune_from_record(const TuneInput& input) {
   if (!r.fit.ambient_measured) {
     r.warnings.push_back(fmt("no ambient column: no feed-forward; the ambient was taken constant at %.1f C",
                              r.fit.ambient_c));
+  } else if (!r.fit.sensor_share_fitted && r.fit.ambient_range_c < 3.0) {
+    // thermal_identify.cpp: the share is searched only where the room moved.
+    r.warnings.push_back(fmt("the room stayed within %.1f C over the record", r.fit.ambient_range_c) +
+                         ": how a change of the room reaches the casing sensor other than through the housing "
+                         "is not known, and the loop learns it only through its integral; where the ambient "
+                         "DS18B20 reads the room (not the heat sink), a chamber step of about 10 C once the unit "
+                         "holds the setpoint lets tune identify it (docs/TUNING.md, section 1)");
   }
   if (r.fit.rms_c > 2.0 * r.fit.quantisation_rms_c) {
     // What the suite found outside the model's class (docs/TUNING.md, limits).
@@ -174,7 +181,12 @@ TuneResult tune_from_record(const TuneInput& input) {
                              r.fit.rms_c, r.fit.rms_c / r.fit.quantisation_rms_c) +
                          "; known causes (docs/TUNING.md, limits): a stage that clips the current below "
                          "[tec] current_limit_a (set it at or below the OPA548's ILIM), a sensor on a node of its own, "
-                         "a slow mode inside the casing");
+                         "a slow mode inside the casing" +
+                         (r.fit.ambient_range_c >= 3.0
+                              ? fmt(", an ambient DS18B20 on the heat sink (its reading moved by %.1f C; a "
+                                    "chamber's step makes that worse: record in a still room)",
+                                    r.fit.ambient_range_c)
+                              : std::string()));
   }
   const double max_sensor = *std::max_element(input.record.sensor_c.begin(), input.record.sensor_c.end());
   const double min_sensor = *std::min_element(input.record.sensor_c.begin(), input.record.sensor_c.end());
@@ -190,7 +202,8 @@ TuneResult tune_from_record(const TuneInput& input) {
 }
 
 SimulationResult simulate_tune_experiment(const model::PlantParams& plant, double room_c, double sample_rate_hz,
-                                          const tune::ExperimentPlan& plan, double configured_limit_a) {
+                                          const tune::ExperimentPlan& plan, double configured_limit_a,
+                                          double ambient_step_c) {
   static const fit::BiasModel calibration = fit::BiasModel::paper_reference();
   SimulationSetup s;
   s.plant = plant;
@@ -203,11 +216,21 @@ SimulationResult simulate_tune_experiment(const model::PlantParams& plant, doubl
   s.sample_rate_hz = sample_rate_hz;
   tune::IdentificationExperiment experiment(plan);
   s.program = &experiment;
-  return run_simulation(s, tune_experiment_room(room_c, plan));
+  return run_simulation(s, tune_experiment_room(room_c, plan, ambient_step_c));
 }
 
-model::ChamberProfile tune_experiment_room(double room_c, const tune::ExperimentPlan& plan) {
-  return model::ChamberProfile({{"tune", 0.0, plan.max_duration_s(), room_c, room_c}});
+double ambient_step_at_s(const tune::ExperimentPlan& plan) { return plan.rest_s + plan.approach_timeout_s; }
+
+model::ChamberProfile tune_experiment_room(double room_c, const tune::ExperimentPlan& plan, double ambient_step_c) {
+  const double end_s = plan.max_duration_s();
+  if (ambient_step_c == 0.0) return model::ChamberProfile({{"tune", 0.0, end_s, room_c, room_c}});
+  constexpr double kChamberRampCPerS = 1.0 / 60.0;  // data/README.md: 1 C/min
+  const double at_s = ambient_step_at_s(plan);
+  const double ramped_s = at_s + std::fabs(ambient_step_c) / kChamberRampCPerS;
+  const double to_c = room_c + ambient_step_c;
+  return model::ChamberProfile({{"tune", 0.0, at_s, room_c, room_c},
+                                {"step", at_s, ramped_s, room_c, to_c},
+                                {"tune, stepped", ramped_s, std::max(end_s, ramped_s + 1.0), to_c, to_c}});
 }
 
 double plant_minimum_warm_up_s(const model::PlantParams& params, double from_c, double target_c) {

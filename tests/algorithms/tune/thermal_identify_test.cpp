@@ -18,6 +18,7 @@
 #include "gyrotc/algorithms/model/plant.hpp"
 #include "gyrotc/algorithms/tune/controller_design.hpp"
 #include "gyrotc/algorithms/tune/experiment.hpp"
+#include "gyrotc/algorithms/tune/identified_housing.hpp"
 #include "gyrotc/algorithms/tune/thermal_identify.hpp"
 #include "gyrotc_catch.hpp"
 #include "sensor_steps.hpp"
@@ -205,6 +206,38 @@ TEST_CASE("the identified TEC gain is within 0.6 % of the plant simulator's, who
   INFO(a.value << " against " << truth_peltier(p) << ", se " << a.std_error);
   CHECK(std::fabs(a.value - truth_peltier(p)) < 0.006 * truth_peltier(p));
   CHECK(a.std_error > 0.0);
+}
+
+TEST_CASE("the loop's unknown heat is at least what the fit leaves unknown of the heat that holds the band's ends") {
+  const ThermalFit& fit = nominal_fit();
+  const double heat_scale = tune::identified_observer_spec(fit, 55.0, 1.0, 16.0).initial_heat_w / 10.0;
+  CHECK(heat_scale >= estimate(fit, "internal_k_per_s").std_error);
+  double widest = 0.0;
+  for (double ambient_c : {-20.0, 35.0}) {
+    const double i = tune::holding_current_a(fit.model, 55.0, ambient_c, 10.0);
+    REQUIRE(std::isfinite(i));
+    const double current_se =
+        tune::std_error_of(fit, [&](const tune::ThermalModel& m) { return tune::holding_current_a(m, 55.0, ambient_c, 10.0); });
+    const double gain = tune::casing_gain_k_per_a_s(fit.model, tune::steady_state(fit.model, i, ambient_c), i);
+    widest = std::max(widest, current_se * gain);
+  }
+  CHECK(widest > 0.0);
+  CHECK(heat_scale == Approx(std::max(widest, estimate(fit, "internal_k_per_s").std_error)));
+  // An internal heat the record pins down exactly: the band's ends set the scale.
+  ThermalFit pinned = fit;
+  for (tune::Estimate& e : pinned.estimates) {
+    if (e.name == "internal_k_per_s") e.std_error = 1e-12;
+  }
+  CHECK(tune::identified_observer_spec(pinned, 55.0, 1.0, 16.0).initial_heat_w / 10.0 == Approx(widest));
+}
+
+TEST_CASE("in a still room the sensor's share of the ambient is not searched: it would be one more static gain") {
+  const ThermalFit& fit = nominal_fit();
+  CHECK(fit.ambient_range_c < 3.0);
+  CHECK_FALSE(fit.sensor_share_fitted);
+  CHECK(fit.model.sensor_ambient_share == 0.0);
+  CHECK(std::none_of(fit.estimates.begin(), fit.estimates.end(),
+                     [](const tune::Estimate& e) { return e.name == "sensor_ambient_share"; }));
 }
 
 TEST_CASE("a record without the ambient column still identifies the unit, the room as a constant") {

@@ -147,3 +147,37 @@ TEST_CASE("the sensor sees the casing late by the dead time and smoothed by the 
   const double slope = (plain[500] - plain[490]) / 10.0;
   CHECK(plain[500] - lagged[500] == Approx(slope * 30.0).epsilon(0.05));
 }
+
+TEST_CASE("a sensor with a share of the ambient settles between the casing and the room, and sees the room through its lag") {
+  ThermalModel m = model_of(PlantParams{});
+  m.dead_time_s = 0.0;
+  m.sensor_lag_s = 30.0;
+  m.sensor_ambient_share = 0.05;
+  // The TEC off, the room stepping from 16 C to 26 C at 100 s.
+  std::vector<double> t, cmd, amb;
+  for (int k = 0; k <= 400; ++k) {
+    t.push_back(k);
+    cmd.push_back(0.0);
+    amb.push_back(k >= 100 ? 26.0 : 16.0);
+  }
+  std::vector<double> seen(t.size()), scratch(t.size());
+  simulate_sensor(m, {40.0, 20.0}, t, cmd, amb, seen, scratch);
+  // At the start the reading is the casing's 40 C, 5 % of the way to the room.
+  CHECK(seen[0] == Approx(0.95 * 40.0 + 0.05 * 16.0).margin(1e-9));
+  // The room's step reaches the reading through the 30 s lag alone, long
+  // before the shell passes it on: 5 % of 10 K, 63 % of it after one lag.
+  std::vector<double> still(t.size());
+  std::vector<double> still_amb(t.size(), 16.0);
+  simulate_sensor(m, {40.0, 20.0}, t, cmd, still_amb, still, scratch);
+  CHECK(seen[130] - still[130] == Approx(0.05 * 10.0 * (1.0 - std::exp(-1.0))).epsilon(0.05));
+  // Without the share the same step has hardly reached the reading by then.
+  m.sensor_ambient_share = 0.0;
+  simulate_sensor(m, {40.0, 20.0}, t, cmd, amb, seen, scratch);
+  simulate_sensor(m, {40.0, 20.0}, t, cmd, still_amb, still, scratch);
+  CHECK(seen[130] - still[130] < 0.02);
+  m.sensor_ambient_share = 0.05;
+  // The current that holds the reading at 55 C holds the casing above it.
+  const double i = holding_current_a(m, 55.0, 16.0, 1.0);
+  REQUIRE(std::isfinite(i));
+  CHECK(m.steady_reading_c(steady_state(m, i, 16.0).casing_c, 16.0) == Approx(55.0).margin(1e-6));
+}

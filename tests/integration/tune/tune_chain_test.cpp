@@ -6,6 +6,7 @@
 // (every parameter at 0.5x and 1.5x, random combinations) is tools/tune_suite
 // (docs/TUNING.md); here the nominal plant and the two variants of the issue
 // where the fixed `tuned` gains do worse than the seed's.
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <string>
@@ -48,13 +49,17 @@ struct Chain {
   double minimum_s = 0.0;
   double sensor_lag_s = 0.0;  // identified
   double fit_rms_c = 0.0;
+  double window_error_c = 0.0;  // tune_suite's fixed window: from 1800 s, the ambient within -20..35 C
+  bool sensor_share_fitted = false;
+  double sensor_ambient_share = 0.0;  // identified
 };
 
-Chain run_chain(const model::PlantParams& plant, const std::string& name, app::TuneLoop loop = app::TuneLoop::pid) {
+Chain run_chain(const model::PlantParams& plant, const std::string& name, app::TuneLoop loop = app::TuneLoop::pid,
+                double ambient_step_c = 0.0) {
   const std::string dir = gyrotc::test::scratch_dir() + "/tune_chain_" + name;
   std::filesystem::create_directories(dir);
   // 1. gyrotc simulate --profile tune --plant P --out DIR
-  const app::SimulationResult experiment = app::simulate_tune_experiment(plant, 16.0, 20.0);
+  const app::SimulationResult experiment = app::simulate_tune_experiment(plant, 16.0, 20.0, {}, 0.0, ambient_step_c);
   REQUIRE(experiment.rows.back().time_s < tune::ExperimentPlan{}.max_duration_s());  // it finished
   app::write_board_record_csv(experiment.rows, dir + "/record.csv");
   // 2. gyrotc tune --data DIR/record.csv --out c.toml
@@ -70,7 +75,15 @@ Chain run_chain(const model::PlantParams& plant, const std::string& name, app::T
   Chain c;
   c.sensor_lag_s = t.fit.model.sensor_lag_s;
   c.fit_rms_c = t.fit.rms_c;
-  c.data = app::run_simulation(setup_for(plant, tuned), fig26).summary;
+  c.sensor_share_fitted = t.fit.sensor_share_fitted;
+  c.sensor_ambient_share = t.fit.model.sensor_ambient_share;
+  const app::SimulationResult data = app::run_simulation(setup_for(plant, tuned), fig26);
+  c.data = data.summary;
+  for (const auto& row : data.rows) {
+    if (row.time_s >= 1800.0 && row.ambient_c >= -20.0 && row.ambient_c <= 35.0) {
+      c.window_error_c = std::max(c.window_error_c, std::fabs(row.casing_c - 55.0));
+    }
+  }
   c.paper = app::run_simulation(setup_for(plant, app::controller_preset(app::ControllerMode::paper, plant)), fig26).summary;
   c.minimum_s = app::plant_minimum_warm_up_s(plant, 16.0, 55.0 - 0.3);
   return c;
@@ -177,6 +190,45 @@ TEST_CASE("chain on a casing sensor with its own 12 s lag, offset and noise: tun
   REQUIRE(o.data.settle_s >= 0.0);
   CHECK(o.data.settle_s <= 1.02 * o.minimum_s);
   CHECK(o.data.max_abs_error_c_in_band <= 0.02);
+}
+
+TEST_CASE("a DS18B20 on a lid that loses heat to the room: with the chamber's step in the record tune finds the share, and the loop holds closer") {
+  // tune_suite --seed 77's network 1 (its plant file's figures): the sensor
+  // on a 50 J/K lid, 1.35 W/K to the casing and 0.028 W/K to the room, 2 % of
+  // the way from the casing to the room, and a change of the room reaches it
+  // in about a minute, not through the sink and the casing.
+  model::PlantParams p;
+  p.tec_seebeck_v_per_k = 0.053954322423815176;
+  p.tec_resistance_ohm = 13.876885769531064;
+  p.tec_conductance_w_per_k = 0.071269151955876325;
+  model::ThermalNetwork n;
+  n.nodes = {{"sink", 245.1240626396, 0.0},
+             {"casing", 295.5338946481931, 0.26216400212741042},
+             {"lid", 50.481638749964361, 0.0},
+             {"die", 1.0652263571717415, 0.0}};
+  n.links = {{model::kAmbientNode, 0, 0.64878482343329158},
+             {0, 1, 0.035626284690558022},
+             {1, 2, 1.3519957697192762},
+             {model::kAmbientNode, 2, 0.028041718487581486},
+             {1, 3, 0.043101026425953454}};
+  n.tec_from = 0;
+  n.tec_to = 1;
+  n.casing_sensor = {2, 21.136552325269847, 0.12305237789689727, 0.015638085298022682};
+  n.ambient_sensor = {model::kAmbientNode, 0.0, 0.034474245348838695, 0.021252970058180828};
+  n.gyro_node = 3;
+  p.network = n;
+  const Chain still = run_chain(p, "lid_still_observer", app::TuneLoop::observer);
+  const Chain stepped = run_chain(p, "lid_stepped_observer", app::TuneLoop::observer, 10.0);
+  INFO("still room: error " << still.window_error_c << " C; chamber step: share " << stepped.sensor_ambient_share
+                            << ", error " << stepped.window_error_c << " C, settle " << stepped.data.settle_s
+                            << " s (minimum " << stepped.minimum_s << " s)");
+  CHECK_FALSE(still.sensor_share_fitted);
+  REQUIRE(stepped.sensor_share_fitted);
+  CHECK(stepped.sensor_ambient_share > 0.01);
+  CHECK(stepped.sensor_ambient_share < 0.05);
+  REQUIRE(stepped.data.settle_s >= 0.0);
+  // Over the chamber's ramps, from 1800 s on (the suite's window).
+  CHECK(stepped.window_error_c < 0.75 * still.window_error_c);
 }
 
 TEST_CASE("a DS18B20 on a mount a minute behind the casing, the warm-up clipped by the rails: the fit follows the record") {

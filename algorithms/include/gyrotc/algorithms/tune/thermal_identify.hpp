@@ -18,7 +18,9 @@
 // Marquardt search and covariance of identify::fit_separable; standard errors
 // are inflated for the residual's autocorrelation (identify::residual_stats'
 // effective sample size). Without an ambient column the ambient is taken as
-// constant and estimated with the rest.
+// constant and estimated with the rest. Where the record's ambient moved by
+// 3 C or more, the sensor's share of the ambient (thermal_model.hpp) is
+// searched as well and kept if it earns its place (Schwarz's criterion).
 namespace gyrotc::tune {
 
 struct TuneRecord {
@@ -42,6 +44,11 @@ struct ThermalFit {
   ThermalState initial;
   bool ambient_measured = true;
   double ambient_c = 0.0;  // the estimated constant ambient (ambient_measured = false)
+  double ambient_range_c = 0.0;     // how far the measured ambient moved over the record
+  // The sensor's share of the ambient (ThermalModel::sensor_ambient_share) is
+  // in the model: the ambient moved by at least 3 C, and the share earned its
+  // place by Schwarz's criterion over the residual's effective samples.
+  bool sensor_share_fitted = false;
   std::vector<Estimate> estimates;
 
   // Fit quality.

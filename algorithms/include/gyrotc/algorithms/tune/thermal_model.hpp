@@ -23,7 +23,11 @@
 //
 // The DS18B20 sees the casing through a first-order lag and a dead time (the
 // conversion, the reading's age when a row or a PID period takes it, the
-// command's alignment to the rows).
+// command's alignment to the rows). The lag's input is (1 - q) Tc + q Ta: a
+// sensor on a part of the housing that also loses heat to the room (a lid, a
+// board) settles between the casing and the ambient, and follows a change of
+// the ambient through its own lag, not through the shell. q = 0: the sensor
+// sees the casing alone.
 namespace gyrotc::tune {
 
 inline constexpr double kKelvin = 273.15;
@@ -37,6 +41,7 @@ struct ThermalModel {
   double internal_k_per_s = 1e-3;      // p = P_internal / Cc, K/s
   double dead_time_s = 1.0;
   double sensor_lag_s = 0.0;
+  double sensor_ambient_share = 0.0;   // q: the ambient's share in what the sensor's lag follows
   double rail_a = 1e3;                 // OPA548 swing / R: the current at Tc = Ts; large = never clips
 
   // Derived rates.
@@ -44,6 +49,10 @@ struct ThermalModel {
   double capacity_ratio() const noexcept;      // r = Cc / Cs
   double shell_ambient_per_s() const noexcept; // e
   double rail_a_per_c() const noexcept;        // S / R = a / (2 b)
+
+  // The sensor's steady reading with the casing at casing_c, and its inverse.
+  double steady_reading_c(double casing_c, double ambient_c) const noexcept;
+  double casing_for_reading_c(double reading_c, double ambient_c) const noexcept;
 };
 
 struct ThermalState {
@@ -74,16 +83,16 @@ ThermalState step(const ThermalModel& m, const ThermalState& x, double command_a
 // The steady state with `current_a` applied (no clipping) at ambient_c.
 ThermalState steady_state(const ThermalModel& m, double current_a, double ambient_c) noexcept;
 
-// The current that holds the casing at casing_c in steady state at ambient_c
-// (on the heating side of the maximum cooling current); NaN when no current
-// within +/- limit_a does, or the stage's rails do not allow it.
-double holding_current_a(const ThermalModel& m, double casing_c, double ambient_c, double limit_a) noexcept;
+// The current that holds the sensor's steady reading at reading_c at
+// ambient_c (on the heating side of the maximum cooling current); NaN when no
+// current within +/- limit_a does, or the stage's rails do not allow it.
+double holding_current_a(const ThermalModel& m, double reading_c, double ambient_c, double limit_a) noexcept;
 
-// The DS18B20's view of the casing along a record: the model started in
+// The DS18B20's view of the housing along a record: the model started in
 // `initial` at time_s[0], command_a[k] applied from time_s[k] to
 // time_s[k + 1], ambient_c[k] the ambient at time_s[k]. Writes the modelled
 // reading at every time_s[k] into sensor_c (same length as time_s). scratch
-// must hold time_s.size() values (the lagged casing before the dead time).
+// must hold time_s.size() values (the lag's output before the dead time).
 void simulate_sensor(const ThermalModel& m, const ThermalState& initial, std::span<const double> time_s,
                      std::span<const double> command_a, std::span<const double> ambient_c,
                      std::span<double> sensor_c, std::span<double> scratch) noexcept;

@@ -57,19 +57,30 @@ struct TuneResult {
 // as well, for comparison, and a PID design that fails is a warning.
 TuneResult tune_from_record(const TuneInput& input);
 
-// The room of `gyrotc simulate --profile tune`: room_c, constant, for as long
-// as the experiment can take.
-model::ChamberProfile tune_experiment_room(double room_c, const tune::ExperimentPlan& plan = {});
+// The chamber of `gyrotc simulate --profile tune`: room_c for as long as the
+// experiment can take, or, with ambient_step_c != 0, room_c until
+// ambient_step_at_s(plan), then a ramp at 1 C/min (data/README.md's chamber
+// rate) to room_c + ambient_step_c, held to the end: the unit is then held
+// near the setpoint (the relay or the PRBS), and the record shows how a
+// change of the room reaches the sensor (tune's sensor_ambient_share).
+model::ChamberProfile tune_experiment_room(double room_c, const tune::ExperimentPlan& plan = {},
+                                           double ambient_step_c = 0.0);
+
+// When the chamber's step starts: the longest the approach may take, so that
+// the unit is held near the setpoint whatever its warm-up.
+double ambient_step_at_s(const tune::ExperimentPlan& plan);
 
 // The identification experiment on the simulated board in lockstep, as
 // `gyrotc simulate --profile tune` runs it: every node and the room at
 // room_c, the TEC limited to the plant's current limit (or to
 // configured_limit_a when it is > 0: a board configured below or above what
-// its stage delivers), an ambient DS18B20, the seed's reference calibration;
-// ends with the experiment. write_board_record_csv(rows) is the record
-// `gyrotc tune` reads.
+// its stage delivers), an ambient DS18B20, the seed's reference calibration,
+// the chamber stepping by ambient_step_c (tune_experiment_room); ends with
+// the experiment. write_board_record_csv(rows) is the record `gyrotc tune`
+// reads.
 SimulationResult simulate_tune_experiment(const model::PlantParams& plant, double room_c, double sample_rate_hz,
-                                          const tune::ExperimentPlan& plan = {}, double configured_limit_a = 0.0);
+                                          const tune::ExperimentPlan& plan = {}, double configured_limit_a = 0.0,
+                                          double ambient_step_c = 0.0);
 
 // The plant's physical minimum warm-up (issue 23): every node at from_c, the
 // TEC commanded at the stage's current limit (the plant clips it at its
