@@ -18,7 +18,8 @@
 #   user, a new setpoint by reload; every fault the emulator offers (each
 #   sensor fault kind on both DS18B20s, an SPI error on each device, DRDY
 #   stopped, the OPA548 shutdown); stop; a calibration record, fit, reload; the compensation against the
-#   record; kill -9 and SEGV; outputs refused; seccomp with kill.
+#   record; kill -9 and SEGV; outputs refused; seccomp with kill; the
+#   model-based loop tuned from the same record.
 # Times in the emulator's event log and in the journal are CLOCK_MONOTONIC.
 set -u
 PLAN=(deb-install sysusers gpio-sim-module udev-gpiochip gpio-chip-lookup gpio-drdy-edge gpio-drdy-timeout
@@ -28,7 +29,8 @@ PLAN=(deb-install sysusers gpio-sim-module udev-gpiochip gpio-chip-lookup gpio-d
       hil-ambient-disconnect hil-casing-power-on-reset hil-ambient-crc hil-spi-adc hil-ambient-all-zero
       hil-spi-rate-dac hil-ambient-low-resolution hil-ambient-power-on-reset hil-ambient-stuck
       hil-casing-crc hil-spi-tec-dac hil-casing-all-zero hil-opa548 hil-casing-low-resolution hil-casing-stuck hil-stop stop
-      hil-calibration reload hil-compensation hil-crash-safe-off crash-restart output-refused seccomp-kill)
+      hil-calibration reload hil-compensation hil-crash-safe-off crash-restart output-refused seccomp-kill
+      hil-tune-observer)
 echo "vm-test: plan ${PLAN[*]}"
 [ "${1:-}" = --plan ] && exit 0
 
@@ -197,7 +199,7 @@ HIL_CHECKS=(hil-emulator hil-probe hil-tune start realtime sandbox watchdog outp
             hil-ambient-all-zero hil-ambient-low-resolution hil-ambient-power-on-reset hil-ambient-stuck
             hil-casing-power-on-reset hil-spi-adc hil-spi-rate-dac hil-casing-crc hil-spi-tec-dac hil-casing-all-zero
             hil-opa548 hil-casing-low-resolution hil-casing-stuck hil-stop stop hil-calibration reload
-            hil-compensation hil-crash-safe-off crash-restart output-refused seccomp-kill)
+            hil-compensation hil-crash-safe-off crash-restart output-refused seccomp-kill hil-tune-observer)
 modprobe cuse 2>/dev/null
 modprobe wire 2>/dev/null
 install -m 0644 /usr/share/gyrotc-emu/gyrotc-emu.toml "$CONF"
@@ -922,6 +924,35 @@ if { [ "$errno_setting" = kill ] || [ "$errno_setting" = 2147483646 ]; } && [ "$
 else
   fail seccomp-kill "SystemCallErrorNumber='$errno_setting': after reload $after_reload (MainPID was $kpid), Result=$(prop Result)" \
     "$denied" "$(unit_log "$c" | tail -12)"
+fi
+
+# --- 11. the model-based loop from the same record --------------------------------
+# tune --loop observer from section 5's identification record, installed as
+# the controller file in the PID's place: the service started with it holds
+# the band (the emulator's true casing, as hil-settle).
+timeout 600 gyrotc tune --data /var/lib/gyrotc/tune.csv --loop observer --experiment-scale 0.04 \
+  --out /etc/gyrotc/observer.toml >/tmp/tune-observer.log 2>&1
+obs_status=$?
+obs_held=""
+c=$(mark)
+if [ "$obs_status" -eq 0 ] && grep -q '^controller_file = "controller.toml"' "$CONF"; then
+  sed -i 's/^controller_file = .*/controller_file = "observer.toml"/' "$CONF"
+  emu_mark observer-start
+  systemctl start gyrotc >/dev/null 2>&1
+  for _ in $(seq 1 60); do
+    obs_held=$(report settle --after-mark observer-start --setpoint 55 --band 0.3 --hold 60) && break
+    obs_held=""
+    sleep 5
+  done
+  obs_last=$(report settle --after-mark observer-start --setpoint 55 --band 0.3 --hold 60)
+  systemctl stop gyrotc >/dev/null 2>&1
+  sed -i 's/^controller_file = .*/controller_file = "controller.toml"/' "$CONF"
+fi
+if [ -n "$obs_held" ]; then
+  pass hil-tune-observer "gyrotc tune --loop observer from the same record ($(grep -m1 'model-based loop' /tmp/tune-observer.log | sed 's/^ *//' | cut -c1-90)...); the service with it, its true casing: $obs_held"
+else
+  fail hil-tune-observer "tune --loop observer exit $obs_status; the casing with its loop: ${obs_last:-not started}" \
+    "$(tail -20 /tmp/tune-observer.log)" "$(unit_log "$c" | tail -8)"
 fi
 
 else
