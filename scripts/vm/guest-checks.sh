@@ -685,8 +685,15 @@ systemctl reload gyrotc
 st=""
 wait_for $((stuck_s + 20)) status_has temp_stuck && st=$(status_line)
 truth=$(emu status | grep -o 'casing_c=[-0-9.]*')
-safe=$(report safe --config "$CONF" --after-mark casing-stuck --from-event fault:casing_sensor --within $((stuck_s + 15)))
-safe_ok=$?
+# The status can show the fault before the emulator's event log holds the
+# 0 A frame the daemon wrote with it: the report is read again for a few
+# seconds (its limit counts from the mark in the log, not from now).
+for _ in 1 2 3 4 5 6; do
+  safe=$(report safe --config "$CONF" --after-mark casing-stuck --from-event fault:casing_sensor --within $((stuck_s + 15)))
+  safe_ok=$?
+  [ "$safe_ok" -eq 0 ] && break
+  sleep 1
+done
 line=$(fault_line "$c" temp_stuck)
 prom_on=""
 prom_is 'gyrotc_flag{flag="temp_stuck"}' 1 && prom_on='gyrotc_flag{flag="temp_stuck"} 1'
