@@ -35,7 +35,8 @@ control::HousingModel identified_housing(const ThermalModel& m, double current_l
   // S (Tc - Ts) + I R within +/- rail_a R.
   h.swing_pos_v = m.rail_a * h.resistance_ohm;
   h.swing_neg_v = -h.swing_pos_v;
-  h.current_limit_a = current_limit_a;
+  // The loop's limit, or the stage's own where it gives less (its ILIM).
+  h.current_limit_a = std::min(current_limit_a, m.stage_limit_a);
   model::ThermalNetwork& n = h.network;
   const double shell_capacity = 1.0 / m.capacity_ratio();
   n.nodes = {{"casing", 1.0, m.internal_k_per_s}, {"shell", shell_capacity, 0.0}};

@@ -92,27 +92,30 @@ constexpr double kNoRailA = 50.0;
 // The parameter vector theta (what the fit searches).
 enum Index : std::size_t {
   kLogPeltier, kLogJoule, kLogLoss, kLogShellRatio, kLogShellTau, kRestRise, kDelay, kLagShare,
-  kLogRail, kCasing0, kShell0, kAmbientShare, kAmbient, kCount
+  kLogRail, kCasing0, kShell0, kAmbientShare, kLogLimit, kAmbient, kCount
 };
 
 // The parameters a search moves: the constant ambient only without an
 // ambient column, the sensor's share of the ambient only with one and when
 // asked (against a constant ambient that share is one more static offset,
-// which the loss and the internal heat already are).
-std::vector<std::size_t> searched_parameters(bool ambient_measured, bool sensor_share) {
+// which the loss and the internal heat already are), the stage's current
+// limit only when asked.
+std::vector<std::size_t> searched_parameters(bool ambient_measured, bool sensor_share, bool stage_limit) {
   std::vector<std::size_t> idx;
   for (std::size_t j = 0; j < kCount; ++j) {
     if (j == kAmbient && ambient_measured) continue;
     if (j == kAmbientShare && !(ambient_measured && sensor_share)) continue;
+    if (j == kLogLimit && !stage_limit) continue;
     idx.push_back(j);
   }
   return idx;
 }
 
-// The sensor's share of the ambient joins the model when the record asks for
-// it: Schwarz's criterion over the residual's effective samples (the rows are
-// correlated, and every row counted would take any small gain).
-bool share_improves_fit(double sse_without, double sse_with, double effective_samples) {
+// A parameter beyond the basic model (the sensor's share of the ambient, the
+// stage's current limit) joins it when the record asks for it: Schwarz's
+// criterion over the residual's effective samples (the rows are correlated,
+// and every row counted would take any small gain).
+bool parameter_improves_fit(double sse_without, double sse_with, double effective_samples) {
   return effective_samples * std::log(sse_with / sse_without) + std::log(effective_samples) < 0.0;
 }
 
@@ -136,6 +139,7 @@ ThermalModel model_of(const std::vector<double>& th) {
   m.dead_time_s = th[kDelay] - m.sensor_lag_s;
   m.sensor_ambient_share = th[kAmbientShare];
   m.rail_a = std::exp(th[kLogRail]) + kRailReferenceK * m.rail_a_per_c();
+  m.stage_limit_a = std::exp(th[kLogLimit]);
   return m;
 }
 
@@ -218,9 +222,11 @@ void check_record(const TuneRecord& r, double experiment_scale) {
 // (equation error): dT/dt = a I (T + 273.15) + b I^2 - g_ca (T - Ta) + p,
 // with the current shift rows earlier than the reading (a sensor that lags
 // its node by seconds sees the relay's steps that much later; the balance
-// on unshifted rows then mistakes the lag for a weak TEC).
+// on unshifted rows then mistakes the lag for a weak TEC). The current a
+// large command did not get is taken as the rails' (stage_limit false) or as
+// the stage's own current limit (true).
 std::vector<double> first_guess(const TuneRecord& r, const std::vector<double>& ambient, bool ambient_measured,
-                                std::size_t shift) {
+                                std::size_t shift, bool stage_limit) {
   const std::size_t n = r.time_s.size();
   constexpr std::size_t w = 10;
   double max_abs = 0.0;
@@ -258,11 +264,12 @@ std::vector<double> first_guess(const TuneRecord& r, const std::vector<double>& 
   double g = 1e-4;
   double c = 0.0;
   double rail = kNoRailA;
+  double limit = kNoRailA;
   // Two passes: the heat balance on the rows no rail can clip (heating up to
   // a third of the largest command, and cooling, whose limit moves away while
-  // the casing is warmer than the shell), the rail from the rows that need
-  // less current than was commanded; then again without the cooling rows
-  // that rail would clip too (a weak stage clips both ways).
+  // the casing is warmer than the shell), the rail or the limit from the rows
+  // that need less current than was commanded; then again without the cooling
+  // rows that rail or limit would clip too (a weak stage clips both ways).
   for (int pass = 0; pass < 2; ++pass) {
     Eigen::MatrixXd x(static_cast<Eigen::Index>(rows.size()), 4);
     Eigen::VectorXd y(static_cast<Eigen::Index>(rows.size()));
@@ -270,7 +277,7 @@ std::vector<double> first_guess(const TuneRecord& r, const std::vector<double>& 
     const double s_guess = a / (2.0 * b);
     for (const Row& row : rows) {
       if (row.i > small_a) continue;
-      if (pass == 1 && row.i < -small_a && -row.i > rail + s_guess * (row.t - row.ta)) continue;
+      if (pass == 1 && row.i < -small_a && -row.i > std::min(limit, rail + s_guess * (row.t - row.ta))) continue;
       y(used) = row.dtdt;
       x(used, 0) = row.i * (row.t + kKelvin);
       x(used, 1) = row.i2;
@@ -295,7 +302,7 @@ std::vector<double> first_guess(const TuneRecord& r, const std::vector<double>& 
       c = beta(3);
     }
     const double p_pass = ambient_measured ? c : 0.0;
-    double rail_sum = 0.0;
+    double clip_sum = 0.0;
     std::size_t clipped = 0;
     const double s_per_r = a / (2.0 * b);
     for (const Row& row : rows) {
@@ -305,12 +312,13 @@ std::vector<double> first_guess(const TuneRecord& r, const std::vector<double>& 
       const double lin = a * (row.t + kKelvin);
       const double needed = (-lin + std::sqrt(lin * lin + 4.0 * b * q)) / (2.0 * b);
       if (std::isfinite(needed) && needed < 0.95 * row.i) {
-        rail_sum += needed + s_per_r * (row.t - row.ta);
+        clip_sum += needed + (stage_limit ? 0.0 : s_per_r * (row.t - row.ta));
         ++clipped;
       }
     }
-    rail = clipped > 20 ? rail_sum / static_cast<double>(clipped) : kNoRailA;
-    if (rail >= kNoRailA) break;  // nothing clipped: the first pass stands
+    const double clip_a = clipped > 20 ? clip_sum / static_cast<double>(clipped) : kNoRailA;
+    (stage_limit ? limit : rail) = clip_a;
+    if (clip_a >= kNoRailA) break;  // nothing clipped: the first pass stands
   }
   const double p = ambient_measured ? c : 0.0;
   const double ta0 = ambient_measured ? mean_ambient : c / g;
@@ -326,6 +334,7 @@ std::vector<double> first_guess(const TuneRecord& r, const std::vector<double>& 
   th[kCasing0] = r.sensor_c.front();
   th[kShell0] = 0.5 * (r.sensor_c.front() + ta0);
   th[kLogRail] = rail_parameter(std::clamp(rail, 0.05, kNoRailA), a, b);
+  th[kLogLimit] = std::log(std::clamp(limit, 0.05, kNoRailA));
   return th;
 }
 
@@ -359,10 +368,12 @@ ThermalFit identify_thermal(const TuneRecord& record, double experiment_scale) {
   // First guesses with the current shifted by a ladder of sensor delays.
   const double row_s = (record.time_s.back() - record.time_s.front()) / static_cast<double>(n - 1);
   std::vector<std::vector<double>> guesses;
+  std::vector<std::vector<double>> limit_guesses;  // the same with the stage's current limit
   for (double delay_s : {0.0, 4.0, 8.0, 12.0, 20.0, 30.0, 45.0}) {
     const auto shift = static_cast<std::size_t>(std::lround(delay_s / row_s));
     if (delay_s > 0.0 && (shift == 0 || 2 * shift + 40 >= n)) continue;
-    guesses.push_back(first_guess(record, ambient, ambient_measured, shift));
+    guesses.push_back(first_guess(record, ambient, ambient_measured, shift, false));
+    limit_guesses.push_back(first_guess(record, ambient, ambient_measured, shift, true));
   }
   const auto [tmin, tmax] = std::minmax_element(record.sensor_c.begin(), record.sensor_c.end());
   double max_command = 0.0;
@@ -374,14 +385,13 @@ ThermalFit identify_thermal(const TuneRecord& record, double experiment_scale) {
     ambient_range_c = *amax - *amin;
   }
   const bool share_searched = ambient_range_c >= kMinAmbientRangeForShareC;
-  bool share_fitted = false;
 
   identify::SeparableModel model;
   // A search runs on the searched parameters (searched_parameters): first
   // without the sensor's share of the ambient, then, where the room moved,
   // with it (below). Every index below kAmbientShare is the same in the full
   // and the searched vectors.
-  std::vector<std::size_t> searched = searched_parameters(ambient_measured, false);
+  std::vector<std::size_t> searched = searched_parameters(ambient_measured, false, false);
   std::vector<double> full_lower(kCount, 0.0);
   std::vector<double> full_upper(kCount, 0.0);
   auto bound = [&](std::size_t j, double lo, double hi) {
@@ -389,11 +399,13 @@ ThermalFit identify_thermal(const TuneRecord& record, double experiment_scale) {
     full_upper[j] = hi;
   };
   // The full vector (the constant ambient at the first guess's when measured,
-  // the sensor's share 0 when not) and the searched one.
+  // the sensor's share 0 and no current limit when not searched) and the
+  // searched one.
   const double ambient_guess = guesses.front()[kAmbient];
   auto expand = [&](const std::vector<double>& reduced) {
     std::vector<double> full(kCount, 0.0);
     full[kAmbient] = ambient_guess;
+    full[kLogLimit] = std::log(kNoRailA);
     for (std::size_t j = 0; j < searched.size(); ++j) full[searched[j]] = reduced[j];
     return full;
   };
@@ -414,13 +426,14 @@ ThermalFit identify_thermal(const TuneRecord& record, double experiment_scale) {
   bound(kCasing0, record.sensor_c.front() - 5.0, record.sensor_c.front() + 5.0);
   bound(kShell0, record.sensor_c.front() - 20.0, record.sensor_c.front() + 20.0);
   bound(kAmbientShare, 0.0, 0.5);
+  bound(kLogLimit, std::log(0.02), std::log(kNoRailA));
   bound(kAmbient, *tmin - 60.0, *tmax + 10.0);
-  auto use_parameters = [&](bool sensor_share) {
-    searched = searched_parameters(ambient_measured, sensor_share);
+  auto use_parameters = [&](bool sensor_share, bool stage_limit) {
+    searched = searched_parameters(ambient_measured, sensor_share, stage_limit);
     model.theta_lower = reduce(full_lower);
     model.theta_upper = reduce(full_upper);
   };
-  use_parameters(false);
+  use_parameters(false, false);
   // The first guesses as the current search's vectors, within its bounds.
   auto searched_guesses = [&]() {
     std::vector<std::vector<double>> out;
@@ -634,25 +647,52 @@ ThermalFit identify_thermal(const TuneRecord& record, double experiment_scale) {
     return sf;
   };
 
-  identify::SeparableFit sf = full_search();
-  if (share_searched) {
-    // With the sensor's share of the ambient: the whole search again, and
-    // Levenberg-Marquardt from the fit without it; the better of the two
-    // stays if it earns its place (share_improves_fit).
-    std::vector<double> from_without = expand(sf.theta);
-    from_without[kAmbientShare] = kShareGuess;
-    use_parameters(true);
+  // One more parameter (the sensor's share of the ambient, the stage's own
+  // current limit): the whole search with it, and Levenberg-Marquardt from
+  // the fit without it (from_without: that fit with the new parameter at its
+  // guess); the better of the two if it earns its place
+  // (parameter_improves_fit), else none and the parameters as they were.
+  bool share_fitted = false;
+  auto with_parameter = [&](const identify::SeparableFit& without, const std::vector<double>& from_without,
+                            bool sensor_share, bool stage_limit) -> std::optional<identify::SeparableFit> {
+    use_parameters(sensor_share, stage_limit);
     identify::SeparableFit with = full_search();
     model.theta_grid = {reduce(from_without)};
     identify::SeparableFit refined = identify::fit_separable(y, model);
     if (refined.sse < with.sse) with = std::move(refined);
     const std::vector<double> residual_with(with.residual.data(), with.residual.data() + n);
     const double effective = identify::effective_sample_size(n, identify::lag1_autocorrelation(residual_with));
-    if (share_improves_fit(sf.sse, with.sse, effective)) {
-      sf = std::move(with);
+    if (parameter_improves_fit(without.sse, with.sse, effective)) return with;
+    use_parameters(share_fitted, false);
+    return std::nullopt;
+  };
+
+  identify::SeparableFit sf = full_search();
+  if (share_searched) {
+    std::vector<double> from_without = expand(sf.theta);
+    from_without[kAmbientShare] = kShareGuess;
+    if (std::optional<identify::SeparableFit> with = with_parameter(sf, from_without, true, false)) {
+      sf = std::move(*with);
       share_fitted = true;
-    } else {
-      use_parameters(false);
+    }
+  }
+
+  // The stage's own current limit: an OPA548 whose ILIM sits below the
+  // configured limit gives less than the warm-up's command, at every casing
+  // temperature (the rails' limit moves with the difference across the
+  // module). A fit still above the floor tries it, its whole search from
+  // first guesses that read the clipped rows as a limit: the fit without it
+  // has bent the Joule term and the shell to mimic it.
+  bool limit_fitted = false;
+  if (sf.sse >= good_sse) {
+    std::vector<double> from_without = expand(sf.theta);
+    from_without[kLogLimit] = limit_guesses.front()[kLogLimit];
+    std::swap(guesses, limit_guesses);
+    std::optional<identify::SeparableFit> with = with_parameter(sf, from_without, share_fitted, true);
+    std::swap(guesses, limit_guesses);
+    if (with) {
+      sf = std::move(*with);
+      limit_fitted = true;
     }
   }
 
@@ -663,6 +703,7 @@ ThermalFit identify_thermal(const TuneRecord& record, double experiment_scale) {
   fit.ambient_measured = ambient_measured;
   fit.ambient_range_c = ambient_range_c;
   fit.sensor_share_fitted = share_fitted;
+  fit.stage_limit_fitted = limit_fitted;
   fit.ambient_c = ambient_measured ? ambient.front() : fit.theta[kAmbient];
   fit.samples = n;
   fit.duration_s = record.time_s.back() - record.time_s.front();
@@ -763,6 +804,10 @@ ThermalFit identify_thermal(const TuneRecord& record, double experiment_scale) {
     }
     fit.estimates.push_back(e);
   }
+  if (limit_fitted) {
+    fit.estimates.push_back(derived_estimate(
+        "stage_limit_a", "A", [](const ThermalModel& m) { return m.stage_limit_a; }, 0.1 * fit.model.stage_limit_a));
+  }
   if (!ambient_measured) fit.estimates.push_back(plain_estimate("ambient_c", "C", kAmbient, 5.0));
 
   const Estimate& peltier = fit.estimates.front();
@@ -790,7 +835,7 @@ ThermalFit identify_thermal(const TuneRecord& record, double experiment_scale) {
 double std_error_of(const ThermalFit& fit, const std::function<double(const ThermalModel&)>& f) {
   const double f0 = f(fit.model);
   Eigen::VectorXd grad = Eigen::VectorXd::Zero(kCount);
-  for (std::size_t j = kLogPeltier; j <= kAmbientShare; ++j) {
+  for (std::size_t j = kLogPeltier; j < kAmbient; ++j) {
     if (j == kCasing0 || j == kShell0) continue;
     const double sd = std::sqrt(std::max(0.0, fit.covariance(static_cast<Eigen::Index>(j), static_cast<Eigen::Index>(j))));
     if (!(sd > 0.0) || !std::isfinite(sd)) continue;

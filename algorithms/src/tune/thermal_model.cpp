@@ -13,12 +13,12 @@ constexpr double kMaxStepS = 2.0;
 
 // The model's rates, computed once for a run of many steps.
 struct Coefficients {
-  double a, b, g, r, e, p, s_per_r, rail;
+  double a, b, g, r, e, p, s_per_r, rail, limit;
 };
 
 Coefficients coefficients(const ThermalModel& m) noexcept {
   return {m.peltier_per_a_s, m.joule_k_per_a2_s, m.casing_shell_per_s(), m.capacity_ratio(),
-          m.shell_ambient_per_s(), m.internal_k_per_s, m.rail_a_per_c(), m.rail_a};
+          m.shell_ambient_per_s(), m.internal_k_per_s, m.rail_a_per_c(), m.rail_a, m.stage_limit_a};
 }
 
 ThermalMatrix matrix(const Coefficients& c, double i, double ambient_c) noexcept {
@@ -34,11 +34,14 @@ double applied(const Coefficients& c, const ThermalState& x, double command_a) n
   const double shift_a = c.s_per_r * (x.casing_c - x.shell_c);
   const double hi = c.rail - shift_a;
   const double lo = -c.rail - shift_a;
-  // A clamp rounded over a few mA (softplus), so that the fit's least squares
-  // see a smooth function of the rail parameters.
+  // Clamps rounded over a few mA (softplus), so that the fit's least squares
+  // see a smooth function of the rail's and the current limit's parameters.
   auto softplus = [](double v) { return v > 30.0 ? v : (v < -30.0 ? 0.0 : std::log1p(std::exp(v))); };
   constexpr double kRoundA = 0.003;
-  return command_a - kRoundA * softplus((command_a - hi) / kRoundA) + kRoundA * softplus((lo - command_a) / kRoundA);
+  auto clip = [&](double i, double low, double high) {
+    return i - kRoundA * softplus((i - high) / kRoundA) + kRoundA * softplus((low - i) / kRoundA);
+  };
+  return clip(clip(command_a, lo, hi), -c.limit, c.limit);
 }
 
 ThermalState trapezoid(const ThermalMatrix& k, const ThermalState& x, double h) noexcept {

@@ -53,6 +53,7 @@ constexpr ModelKey kModelKeys[] = {
     {"sensor_lag_s", &tune::ThermalModel::sensor_lag_s, 0.0, 36000.0},
     {"sensor_ambient_share", &tune::ThermalModel::sensor_ambient_share, 0.0, 0.9, false},
     {"rail_a", &tune::ThermalModel::rail_a, 1e-6, 1e6},
+    {"stage_limit_a", &tune::ThermalModel::stage_limit_a, 1e-6, 1e6, false},
 };
 
 void parse_pid(const toml::table& root, const std::string& name, ControllerFile& c) {

@@ -97,8 +97,10 @@ TuneResult tune_from_record(const TuneInput& input) {
   r.spec.setpoint_c = input.setpoint_c;
   r.spec.room_c = room_of(input.record, r.fit);
   r.spec.ambient_sensor = r.fit.ambient_measured;
-  r.spec.max_a = r.fit.heating_limit_a;
-  r.spec.min_a = std::min(r.fit.cooling_limit_a, -1e-3);
+  // The current that flows: the commands, within the stage's own limit where
+  // the record shows one below them.
+  r.spec.max_a = std::min(r.fit.heating_limit_a, r.fit.model.stage_limit_a);
+  r.spec.min_a = std::min(std::max(r.fit.cooling_limit_a, -r.fit.model.stage_limit_a), -1e-3);
   r.spec.rail_known = r.fit.rail_reached;
   for (const auto& e : r.fit.estimates) {
     if (e.name == "shell_ratio" || e.name == "shell_tau_s") r.spec.shell_known = r.spec.shell_known && e.determined;
@@ -163,6 +165,14 @@ TuneResult tune_from_record(const TuneInput& input) {
     r.warnings.push_back("the experiment never reached the OPA548's rail limit: no [rail] in the controller file, "
                          "the anti-windup knows only the current limits");
   }
+  if (r.fit.stage_limit_fitted) {
+    r.warnings.push_back(fmt("the stage gave at most %.3f A, below the %.3f A commanded (the OPA548's own current "
+                             "limit, its ILIM): the loop is designed for it; ",
+                             r.fit.model.stage_limit_a, r.fit.max_command_a) +
+                         fmt("set [tec] current_limit_a to %.2f A or less, so that the limit the daemon applies "
+                             "and reports is the one that acts",
+                             std::floor(100.0 * r.fit.model.stage_limit_a) / 100.0));
+  }
   if (!r.fit.ambient_measured) {
     r.warnings.push_back(fmt("no ambient column: no feed-forward; the ambient was taken constant at %.1f C",
                              r.fit.ambient_c));
@@ -179,8 +189,7 @@ TuneResult tune_from_record(const TuneInput& input) {
     r.warnings.push_back(fmt("the model misses part of the record: residual rms %.3f C, %.1fx the DS18B20's "
                              "quantisation",
                              r.fit.rms_c, r.fit.rms_c / r.fit.quantisation_rms_c) +
-                         "; known causes (docs/TUNING.md, limits): a stage that clips the current below "
-                         "[tec] current_limit_a (set it at or below the OPA548's ILIM), a sensor on a node of its own, "
+                         "; known causes (docs/TUNING.md, limits): a sensor on a node of its own, "
                          "a slow mode inside the casing" +
                          (r.fit.ambient_range_c >= 3.0
                               ? fmt(", an ambient DS18B20 on the heat sink (its reading moved by %.1f C; a "
@@ -310,7 +319,9 @@ nlohmann::json tune_json(const TuneResult& r) {
               {"noise_slower_tau_s", f.noise.slower_tau_rows * row_s},
               {"ljung_box_p", f.ljung_box_p},
               {"ambient_measured", f.ambient_measured},
-              {"rail_reached", f.rail_reached}};
+              {"rail_reached", f.rail_reached},
+              {"sensor_share_fitted", f.sensor_share_fitted},
+              {"stage_limit_fitted", f.stage_limit_fitted}};
   json params = json::array();
   for (const auto& e : f.estimates) {
     params.push_back({{"name", e.name},

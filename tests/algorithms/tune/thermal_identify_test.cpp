@@ -33,8 +33,10 @@ namespace {
 // DS18B20 converts every second (the reading reflects the start of the
 // conversion and arrives 0.75 s later), the experiment sets the command every
 // 2 s from the latest reading, one row a second with the latest reading, the
-// command and the ambient reading.
-TuneRecord plant_record(model::PlantParams p, double room_c, bool with_ambient = true) {
+// command and the ambient reading. The experiment commands up to
+// commanded_limit_a (default: the stage's own limit).
+TuneRecord plant_record(model::PlantParams p, double room_c, bool with_ambient = true, double commanded_limit_a = 0.0) {
+  if (!(commanded_limit_a > 0.0)) commanded_limit_a = p.current_limit_a;
   p.initial_temp_c = room_c;
   model::Plant plant(p, 7);
   plant.set_ambient_c(room_c);
@@ -51,7 +53,7 @@ TuneRecord plant_record(model::PlantParams p, double room_c, bool with_ambient =
     if (q % 4 == 3) reading = pending;                      // ... and arrives 0.75 s later
     if (q % 8 == 0 && q > 0) {
       control::TecProgramInput in{t, reading, with_ambient ? test::ds18b20_steps_c(room_c) : std::nan(""), 55.0,
-                                  -p.current_limit_a, p.current_limit_a};
+                                  -commanded_limit_a, commanded_limit_a};
       const control::TecProgramOutput o = experiment.next(in);
       if (o.finished) break;
       command = o.current_a;
@@ -238,6 +240,25 @@ TEST_CASE("in a still room the sensor's share of the ambient is not searched: it
   CHECK(fit.model.sensor_ambient_share == 0.0);
   CHECK(std::none_of(fit.estimates.begin(), fit.estimates.end(),
                      [](const tune::Estimate& e) { return e.name == "sensor_ambient_share"; }));
+}
+
+TEST_CASE("a stage that gives what is commanded gets no current limit of its own") {
+  const ThermalFit& fit = nominal_fit();
+  CHECK_FALSE(fit.stage_limit_fitted);
+  CHECK(std::none_of(fit.estimates.begin(), fit.estimates.end(),
+                     [](const tune::Estimate& e) { return e.name == "stage_limit_a"; }));
+}
+
+TEST_CASE("a stage whose own limit is below the experiment's commands has that limit identified, and the fit reaches the floor") {
+  model::PlantParams p;
+  p.current_limit_a = 0.7;  // the OPA548's ILIM below the 1 A the experiment commands
+  const ThermalFit fit = tune::identify_thermal(plant_record(p, 16.0, true, 1.0));
+  REQUIRE(fit.stage_limit_fitted);
+  const tune::Estimate limit = estimate(fit, "stage_limit_a");
+  INFO("stage limit " << limit.value << " +/- " << limit.std_error << " A, rms " << fit.rms_c << " C");
+  CHECK(limit.value == Approx(0.7).epsilon(0.02));
+  CHECK(fit.rms_c < 1.5 * fit.quantisation_rms_c);
+  CHECK(estimate(fit, "peltier_per_a_s").value == Approx(truth_peltier(p)).epsilon(0.05));
 }
 
 TEST_CASE("a record without the ambient column still identifies the unit, the room as a constant") {

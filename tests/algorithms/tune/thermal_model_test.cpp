@@ -38,16 +38,15 @@ ThermalModel model_of(const PlantParams& p) {
 
 }  // namespace
 
-TEST_CASE("the tune model follows the plant simulator through heating, rail clipping, cooling and coasting") {
-  PlantParams p;
-  p.current_limit_a = 5.0;  // only the rails clip (the tune model knows no current limit of its own)
-  p.initial_temp_c = 16.0;
-  const ThermalModel m = model_of(p);
+namespace {
+
+// The largest difference between the tune model's casing and the plant
+// simulator's over a 1 A warm-up, a cooling step, a PRBS-like stretch and
+// the TEC off; `limited` says whether the plant's stage clipped the current.
+double largest_difference_c(const PlantParams& p, const ThermalModel& m, bool& limited) {
   Plant plant(p, 1);
   plant.set_ambient_c(16.0);
   plant.set_tec_enabled(true);
-  // 1 A (clipped by the rails once the casing is ~10 K above the shell), a
-  // cooling step, a PRBS-like stretch, then the TEC off.
   std::vector<double> time_s;
   std::vector<double> command_a;
   for (int k = 0; k <= 4000; ++k) {
@@ -63,17 +62,44 @@ TEST_CASE("the tune model follows the plant simulator through heating, rail clip
   std::vector<double> scratch(time_s.size());
   simulate_sensor(m, {16.0, 16.0}, time_s, command_a, ambient, model_c, scratch);
   double worst = 0.0;
-  bool clipped = false;
+  limited = false;
   for (std::size_t k = 0; k < time_s.size(); ++k) {
     worst = std::max(worst, std::fabs(model_c[k] - plant.casing_c()));
     plant.set_tec_drive_v(stage_drive_v(p, command_a[k]));
-    clipped = clipped || plant.tec_limited();
+    limited = limited || plant.tec_limited();
     plant.advance(1.0);
     plant.flush();
   }
+  return worst;
+}
+
+}  // namespace
+
+TEST_CASE("the tune model follows the plant simulator through heating, rail clipping, cooling and coasting") {
+  PlantParams p;
+  p.current_limit_a = 5.0;  // only the rails clip (1 A, once the casing is ~10 K above the shell)
+  p.initial_temp_c = 16.0;
+  bool clipped = false;
+  const double worst = largest_difference_c(p, model_of(p), clipped);
   CHECK(clipped);  // the rail was exercised
   INFO("largest difference " << worst << " C over a 40 C warm-up");
   CHECK(worst < 0.05);
+}
+
+TEST_CASE("the tune model follows a plant whose stage limits the current below the commands, given that limit") {
+  PlantParams p;
+  p.current_limit_a = 0.6;  // the OPA548's ILIM below the 1 A and 0.8 A commanded
+  p.initial_temp_c = 16.0;
+  ThermalModel m = model_of(p);
+  m.stage_limit_a = p.current_limit_a;
+  bool limited = false;
+  const double worst = largest_difference_c(p, m, limited);
+  CHECK(limited);
+  INFO("largest difference " << worst << " C");
+  CHECK(worst < 0.05);
+  // Without the limit the model heats and cools with the current commanded.
+  m.stage_limit_a = ThermalModel{}.stage_limit_a;
+  CHECK(largest_difference_c(p, m, limited) > 1.0);
 }
 
 TEST_CASE("at the steady state the model's heat balances close, written out in watts") {
@@ -115,6 +141,10 @@ TEST_CASE("the holding current holds the setpoint in steady state, and is NaN wh
   ThermalModel weak = m;
   weak.rail_a = 0.2;
   CHECK(std::isnan(holding_current_a(weak, 55.0, -20.0, 1.0)));
+  // Nor one whose own current limit is 0.1 A.
+  ThermalModel limited = m;
+  limited.stage_limit_a = 0.1;
+  CHECK(std::isnan(holding_current_a(limited, 55.0, -20.0, 1.0)));
 }
 
 TEST_CASE("one long step and many short ones agree (the trapezoidal network is sub-stepped)") {

@@ -127,7 +127,7 @@ TEST_CASE("gyrotc tune writes a controller file that simulate can run, and repor
   CHECK(nlohmann::json::parse(sim).at("controller") == out);
 }
 
-TEST_CASE("a stage that clips below the configured current limit misfits, and the warning names it as a cause") {
+TEST_CASE("a stage that clips below the configured current limit has its limit identified, and tune says to configure it") {
   model::PlantParams plant;
   plant.current_limit_a = 0.6;  // the OPA548's ILIM, below the 1 A the controller is configured for
   std::filesystem::create_directories(kDir);
@@ -135,13 +135,22 @@ TEST_CASE("a stage that clips below the configured current limit misfits, and th
   app::write_board_record_csv(app::simulate_tune_experiment(plant, 16.0, 20.0, {}, 1.0).rows, record);
   const nlohmann::json j = nlohmann::json::parse(
       run_command(app::add_tune_command, "tune", {"--data", record, "--out", kDir + "/clipped.toml", "--json"}));
-  bool named = false;
-  for (const auto& w : j.at("warnings")) {
-    named = named || w.get<std::string>().find("a stage that clips the current below [tec] current_limit_a") !=
-                         std::string::npos;
+  const nlohmann::json& fit = j.at("fit");
+  INFO("fit rms " << fit.at("rms_c").get<double>() << " C");
+  CHECK(fit.at("stage_limit_fitted").get<bool>());
+  CHECK(fit.at("rms_c").get<double>() < 2.0 * fit.at("quantisation_rms_c").get<double>());
+  double limit_a = 0.0;
+  for (const auto& e : j.at("parameters")) {
+    if (e.at("name") == "stage_limit_a") limit_a = e.at("value").get<double>();
   }
-  INFO("fit rms " << j.at("fit").at("rms_c").get<double>() << " C");
-  CHECK(named);
+  CHECK(limit_a == Approx(0.6).epsilon(0.02));
+  bool told = false;
+  for (const auto& w : j.at("warnings")) {
+    const std::string text = w.get<std::string>();
+    told = told || (text.find("the stage gave at most") != std::string::npos &&
+                    text.find("set [tec] current_limit_a to") != std::string::npos);
+  }
+  CHECK(told);
 }
 
 TEST_CASE("the controller tune designs holds the plant that made the record better than the seed's controller") {

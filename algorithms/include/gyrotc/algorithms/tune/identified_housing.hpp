@@ -13,10 +13,12 @@
 // kelvin per second of the casing (the loop's unknown heat included). The
 // casing (with the unit's own heat) and the shell, the TEC between them (S = a,
 // R = 2 b, K = g), the shell's loss to the ambient e / r, the stage's swing
-// from the identified rail (rail_a R). The identified sensor lag becomes a
-// node of its own (a capacity too small to matter) between the casing and the
-// sensor, the node the loop holds: a record cannot tell a sensor on a node of
-// its own from a slow sensor, and holding the casing would brake the warm-up
+// from the identified rail (rail_a R), its current limit the smaller of the
+// loop's (current_limit_a) and the stage's own (stage_limit_a). The
+// identified sensor lag becomes a node of its own (a capacity too small to
+// matter) between the casing and the sensor, the node the loop holds: a
+// record cannot tell a sensor on a node of its own from a slow sensor, and
+// holding the casing would brake the warm-up
 // a lag too early. The identified dead time is mostly the age of the reading
 // a record row carries, which the loop is told reading by reading; what is
 // left becomes the sensor's own lag behind that node.
@@ -25,10 +27,10 @@ namespace gyrotc::tune {
 control::HousingModel identified_housing(const ThermalModel& m, double current_limit_a);
 
 // The loop's filter and weights from what the fit knows (not from any
-// plant): the unknown heat's scale is the internal heat's standard error, or
-// 1 % of the TEC's Peltier heat at 1 A when the record pins the heat down
-// closer than that; the heat starts with ten times that scale and walks by it
-// over the record's length. The readings are the DS18B20's 1/16 C steps with
+// plant): the unknown heat's scale is the larger of the internal heat's
+// standard error and that of the heat the TEC gives to hold the setpoint at
+// either end of the band (-20 and 35 C); the heat starts with ten times that
+// scale and walks by it over the record's length. The readings are the DS18B20's 1/16 C steps with
 // the noise the fit found beside them.
 control::ObserverLoopSpec identified_observer_spec(const ThermalFit& fit, double setpoint_c, double period_s,
                                                    double design_ambient_c);

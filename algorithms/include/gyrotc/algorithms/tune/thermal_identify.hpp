@@ -49,6 +49,10 @@ struct ThermalFit {
   // in the model: the ambient moved by at least 3 C, and the share earned its
   // place by Schwarz's criterion over the residual's effective samples.
   bool sensor_share_fitted = false;
+  // The stage's own current limit (ThermalModel::stage_limit_a) is in the
+  // model: the fit without it stayed above the DS18B20's quantisation floor,
+  // and the limit earned its place by the same criterion.
+  bool stage_limit_fitted = false;
   std::vector<Estimate> estimates;
 
   // Fit quality.

@@ -19,7 +19,9 @@
 //
 // The current applied is the command clipped by the OPA548's output swing:
 // S (Tc - Ts) + I R within the rails, i.e. I <= rail_a - (S/R)(Tc - Ts) and
-// I >= -rail_a - (S/R)(Tc - Ts), with S/R = a/(2b) (rails taken symmetric).
+// I >= -rail_a - (S/R)(Tc - Ts), with S/R = a/(2b) (rails taken symmetric),
+// and by the OPA548's own current limit (its ILIM resistor), |I| <= stage_limit_a,
+// which can sit below the limit the board is configured for.
 //
 // The DS18B20 sees the casing through a first-order lag and a dead time (the
 // conversion, the reading's age when a row or a PID period takes it, the
@@ -43,6 +45,7 @@ struct ThermalModel {
   double sensor_lag_s = 0.0;
   double sensor_ambient_share = 0.0;   // q: the ambient's share in what the sensor's lag follows
   double rail_a = 1e3;                 // OPA548 swing / R: the current at Tc = Ts; large = never clips
+  double stage_limit_a = 1e3;          // OPA548 ILIM, A; large = never clips
 
   // Derived rates.
   double casing_shell_per_s() const noexcept;  // g
