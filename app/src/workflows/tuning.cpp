@@ -165,7 +165,10 @@ TuneResult tune_from_record(const TuneInput& input) {
     r.warnings.push_back("the experiment never reached the OPA548's rail limit: no [rail] in the controller file, "
                          "the anti-windup knows only the current limits");
   }
-  if (r.fit.stage_limit_fitted) {
+  // A limit within 3 % of the largest command changes little and is no cause
+  // to configure less (tune_suite: stages that gave the whole command were
+  // fitted limits of 97..99 % of it, docs/TUNING.md section 2).
+  if (r.fit.stage_limit_fitted && r.fit.model.stage_limit_a < 0.97 * r.fit.max_command_a) {
     r.warnings.push_back(fmt("the stage gave at most %.3f A, below the %.3f A commanded (the OPA548's own current "
                              "limit, its ILIM): the loop is designed for it; ",
                              r.fit.model.stage_limit_a, r.fit.max_command_a) +
