@@ -104,9 +104,15 @@ void HousingStepper::advance(Eigen::VectorXd& x, double dt_s, const HousingInput
   }
 }
 
-void HousingStepper::steady_state(Eigen::VectorXd& x, const HousingInput& in) noexcept {
+bool HousingStepper::steady_state(Eigen::VectorXd& x, const HousingInput& in) noexcept {
   const int n = model_.node_count();
-  assemble(in);
+  // The stage gives at most its limit. Beyond it the Peltier term (S I T,
+  // growing with the temperature it heats) can outweigh an identified
+  // model's losses: the linear steady state is then a saddle hundreds of
+  // kelvin off, and a holding-current search that stepped there steered by it.
+  HousingInput held = in;
+  held.current_a = std::clamp(in.current_a, -model_.current_limit_a, model_.current_limit_a);
+  assemble(held);
   lu_.compute(g_);
   nodes_.noalias() = lu_.solve(s_);
   x.head(n) = nodes_;
@@ -115,6 +121,10 @@ void HousingStepper::steady_state(Eigen::VectorXd& x, const HousingInput& in) no
     const int node = model_.network.ambient_sensor.node;
     x(model_.ambient_lag_index()) = node == model::kAmbientNode ? in.ambient_c : x(node);
   }
+  // G's eigenvalues are the network's decay rates (times the capacities):
+  // positive for a physical housing, and the first that the Peltier term
+  // drives through zero turns the determinant's sign.
+  return lu_.determinant() > 0.0;
 }
 
 double HousingStepper::applied_current_a(const Eigen::VectorXd& x, double command_a) const noexcept {

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <stdexcept>
 
 #include "gyrotc/algorithms/control/riccati.hpp"
@@ -10,30 +11,89 @@
 namespace gyrotc::control {
 namespace {
 
-// The current in [min_a, max_a] whose steady state holds setpoint_c (Newton
-// on the steady state's held temperature, from `start_a`); the steady state
-// of the current returned in xss. The held temperature falls with the current
-// only past the TEC's maximum cooling, where Joule heat wins (and a cooling
-// current can warm the casing through a hot shell): the holding current is
-// the root where it rises, so an iterate where it does not moves halfway to
-// max_a instead of following the slope to the wrong root.
+// The held temperature in the steady state at current_a (into x); +inf
+// where the housing is not stable at that current (an identified model's
+// Peltier term outgrowing its losses: the casing, or the sink and with it
+// the casing, heats without bound).
+double held_c(HousingStepper& stepper, Eigen::VectorXd& x, double current_a, double ambient_c,
+              double heat_w) noexcept {
+  return stepper.steady_state(x, HousingInput{current_a, ambient_c, heat_w})
+             ? stepper.controlled_c(x)
+             : std::numeric_limits<double>::infinity();
+}
+
+// How close to the setpoint a steady state holds it.
+constexpr double kHoldsC = 1e-3;
+
+// The current in [min_a, max_a] whose steady state holds setpoint_c, or the
+// one that comes closest where none does; its steady state in xss. The held
+// temperature falls with the current only past the TEC's maximum cooling,
+// where Joule heat wins (and a cooling current can warm the casing through a
+// hot shell): the holding current is the root where it rises. Newton from
+// `start_a` finds it in a few steps; where it does not (a root outside the
+// range, an iterate past the maximum cooling), the range is searched: the
+// maximum cooling (the held temperature's one minimum, golden section), then
+// the root above it (bisection). The range stays within the stage's own
+// limit: past it the steady state no longer moves with the command.
 double steady_current(HousingStepper& stepper, Eigen::VectorXd& xss, Eigen::VectorXd& probe, double setpoint_c,
                       double ambient_c, double heat_w, double start_a, double min_a, double max_a) noexcept {
   constexpr double kDeltaA = 1e-3;
+  const double limit_a = stepper.model().current_limit_a;
+  min_a = std::clamp(min_a, -limit_a, limit_a);
+  max_a = std::clamp(max_a, -limit_a, limit_a);
   double current_a = std::clamp(start_a, min_a, max_a);
   for (int k = 0; k < 12; ++k) {
-    stepper.steady_state(xss, HousingInput{current_a, ambient_c, heat_w});
-    const double error_c = stepper.controlled_c(xss) - setpoint_c;
-    stepper.steady_state(probe, HousingInput{current_a + kDeltaA, ambient_c, heat_w});
-    const double slope = (stepper.controlled_c(probe) - stepper.controlled_c(xss)) / kDeltaA;
-    if (!std::isfinite(slope)) break;
-    const double next_a =
-        slope > 0.0 ? std::clamp(current_a - error_c / slope, min_a, max_a) : current_a + 0.5 * (max_a - current_a);
-    const bool done = std::fabs(next_a - current_a) < 1e-7;
+    const double error_c = held_c(stepper, xss, current_a, ambient_c, heat_w) - setpoint_c;
+    // The slope on the side within the range (at max_a, from below).
+    const double delta_a = current_a + kDeltaA <= max_a ? kDeltaA : -kDeltaA;
+    const double slope =
+        (held_c(stepper, probe, current_a + delta_a, ambient_c, heat_w) - (error_c + setpoint_c)) / delta_a;
+    if (!std::isfinite(slope) || !(slope > 0.0)) break;
+    const double next_a = std::clamp(current_a - error_c / slope, min_a, max_a);
+    if (std::fabs(next_a - current_a) < 1e-7) {
+      if (std::fabs(held_c(stepper, xss, next_a, ambient_c, heat_w) - setpoint_c) <= kHoldsC) return next_a;
+      break;  // at the range's end: the root lies beyond it
+    }
     current_a = next_a;
-    if (done) break;
   }
-  stepper.steady_state(xss, HousingInput{current_a, ambient_c, heat_w});
+  const auto at = [&](double a) { return held_c(stepper, probe, a, ambient_c, heat_w); };
+  constexpr double kGolden = 0.6180339887498949;
+  double lo_a = min_a;
+  double hi_a = max_a;
+  double left_a = hi_a - kGolden * (hi_a - lo_a);
+  double right_a = lo_a + kGolden * (hi_a - lo_a);
+  double left_c = at(left_a);
+  double right_c = at(right_a);
+  for (int k = 0; k < 48; ++k) {
+    if (left_c <= right_c) {
+      hi_a = right_a;
+      right_a = left_a;
+      right_c = left_c;
+      left_a = hi_a - kGolden * (hi_a - lo_a);
+      left_c = at(left_a);
+    } else {
+      lo_a = left_a;
+      left_a = right_a;
+      left_c = right_c;
+      right_a = lo_a + kGolden * (hi_a - lo_a);
+      right_c = at(right_a);
+    }
+  }
+  const double coolest_a = 0.5 * (lo_a + hi_a);
+  if (at(coolest_a) >= setpoint_c) {
+    current_a = coolest_a;  // no current cools the casing to the setpoint
+  } else if (at(max_a) <= setpoint_c) {
+    current_a = max_a;  // nor heats it
+  } else {
+    lo_a = coolest_a;
+    hi_a = max_a;
+    for (int k = 0; k < 52; ++k) {
+      const double mid_a = 0.5 * (lo_a + hi_a);
+      (at(mid_a) < setpoint_c ? lo_a : hi_a) = mid_a;
+    }
+    current_a = 0.5 * (lo_a + hi_a);
+  }
+  held_c(stepper, xss, current_a, ambient_c, heat_w);
   return current_a;
 }
 
@@ -116,7 +176,7 @@ double holding_current_a(const HousingModel& model, double setpoint_c, double am
   Eigen::VectorXd xss(model.state_count());
   Eigen::VectorXd probe(model.state_count());
   const double current_a = steady_current(stepper, xss, probe, setpoint_c, ambient_c, 0.0, 0.0, -limit_a, limit_a);
-  return std::fabs(stepper.controlled_c(xss) - setpoint_c) <= 1e-3 ? current_a : std::nan("");
+  return std::fabs(stepper.controlled_c(xss) - setpoint_c) <= kHoldsC ? current_a : std::nan("");
 }
 
 ObserverLoopDesign design_observer_loop(const HousingModel& model, const ObserverLoopSpec& spec) {
@@ -133,10 +193,10 @@ ObserverLoopDesign design_observer_loop(const HousingModel& model, const Observe
   const int n = model.state_count();
   Eigen::VectorXd x0(n);
   Eigen::VectorXd probe(n);
-  constexpr double kSearchA = 50.0;  // the holding current is searched without the stage's limits
+  constexpr double kSearchA = 50.0;  // wide: steady_current keeps the current within the stage's limit
   d.operating_current_a = steady_current(stepper, x0, probe, spec.setpoint_c, spec.design_ambient_c, 0.0, 0.0,
                                          -kSearchA, kSearchA);
-  if (std::fabs(stepper.controlled_c(x0) - spec.setpoint_c) > 1e-3) {
+  if (std::fabs(stepper.controlled_c(x0) - spec.setpoint_c) > kHoldsC) {
     throw std::invalid_argument("observer loop: no TEC current holds the setpoint at the design ambient");
   }
 
@@ -400,9 +460,13 @@ double ObserverLoop::tick(double reading_c, double reading_age_s, double ambient
   const int n = m.state_count();
   holding_a_ = steady_current(stepper_, xss_, probe_, setpoint_c, z_(ambient_index()), z_(heat_index()), holding_a_,
                               min_a, max_a);
-  const double wanted_a = holding_a_ - design_->feedback.dot(z_.head(n) - xss_);
+  // Where no current holds the setpoint (as the filter sees the heat and the
+  // ambient now), the one that comes closest: state feedback about the
+  // steady state it does reach would steer away from the setpoint.
+  const bool holds = std::fabs(stepper_.controlled_c(xss_) - setpoint_c) <= kHoldsC;
+  const double wanted_a = holds ? holding_a_ - design_->feedback.dot(z_.head(n) - xss_) : holding_a_;
   const double current_a = std::clamp(wanted_a, min_a, max_a);
-  saturated_ = current_a != wanted_a;
+  saturated_ = !holds || current_a != wanted_a;
   last_current_a_ = current_a;
   predict(current_a);
   predict_shadow(current_a);

@@ -193,3 +193,29 @@ TEST_CASE("a loop that adopts a handover holds the housing on from there") {
   }
   CHECK(worst_c < 0.1);
 }
+
+TEST_CASE("a setpoint only a current past the stage's own limit could hold has no holding current, whatever range is searched") {
+  const double unlimited_a = holding_current_a(two_nodes(), 55.0, 16.0, 1.0);
+  REQUIRE(unlimited_a > 0.0);
+  HousingModel m = two_nodes();
+  m.current_limit_a = 0.8 * unlimited_a;  // the stage's ILIM
+  CHECK(std::isnan(holding_current_a(m, 55.0, 16.0, 1.0)));
+  CHECK(std::isnan(holding_current_a(m, 55.0, 16.0, 10.0)));
+  m.current_limit_a = 1.2 * unlimited_a;
+  CHECK(holding_current_a(m, 55.0, 16.0, 10.0) == Approx(unlimited_a).margin(1e-6));
+}
+
+TEST_CASE("where no current cools the casing to the setpoint the loop drives full cooling, not the feedback's heat") {
+  // The casing leaks 2 W/K to a 100 C room: holding 55 C would pump 90 W.
+  HousingModel m = two_nodes();
+  m.network.links.push_back({kAmbientNode, 1, 2.0});
+  ObserverLoopSpec spec;
+  spec.design_ambient_c = 50.0;
+  ObserverLoop loop(std::make_shared<const ObserverLoopDesign>(design_observer_loop(m, spec)));
+  for (int k = 0; k < 30; ++k) {
+    const double current_a = loop.tick(60.0, 0.0, 100.0, 55.0, -1.0, 1.0);
+    INFO("period " << k << ": " << current_a << " A");
+    CHECK(current_a == Approx(-1.0).margin(1e-6));
+  }
+  CHECK(loop.saturated());
+}

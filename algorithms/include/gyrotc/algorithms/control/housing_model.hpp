@@ -61,8 +61,12 @@ class HousingStepper {
 
   // x (state_count() values) over dt_s with the inputs held.
   void advance(Eigen::VectorXd& x, double dt_s, const HousingInput& in) noexcept;
-  // The steady state with the inputs held (the lags at their nodes' values).
-  void steady_state(Eigen::VectorXd& x, const HousingInput& in) noexcept;
+  // The steady state with the inputs held (the lags at their nodes' values),
+  // the current within the stage's own limit (current_limit_a; not the
+  // rails). False when the housing is not stable at that current (an
+  // identified model whose Peltier term, S I T, outgrows its losses): x is
+  // then the network's saddle point, no state it settles to.
+  bool steady_state(Eigen::VectorXd& x, const HousingInput& in) noexcept;
   // The current the stage applies for a command in state x (its swing).
   double applied_current_a(const Eigen::VectorXd& x, double command_a) const noexcept;
   // The casing sensor's reading of a state (lagged node plus offset), and
