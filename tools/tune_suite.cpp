@@ -33,7 +33,9 @@
 //                                      "tune_suite:begin/end" markers; default docs/TUNING.md)
 //   tune_suite --only "network 4,network 7"
 //                                      only the variants named (comma-separated); prints
-//                                      the figures and writes neither plots nor markdown
+//                                      the figures, writes each loop's fig26 run into the
+//                                      variant's work directory (fig26_LOOP.csv, as
+//                                      simulate's simulation.csv), and neither plots nor markdown
 
 #include <algorithm>
 #include <chrono>
@@ -48,6 +50,7 @@
 #include <sstream>
 #include <stdexcept>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "gyrotc/algorithms/fit/bias_model.hpp"
@@ -135,6 +138,7 @@ struct LoopFigures {
   double settle_s = -1.0;  // < 0: never settled
   double error_c = -1.0;   // over the fixed window; < 0: no run
   bool stuck_alarm = false;  // temp_stuck raised with a healthy sensor (a false alarm)
+  bool runaway = false;      // loop_runaway raised: the PID took over from the model-based loop
   std::vector<app::RecordRow> rows;
 };
 
@@ -149,6 +153,7 @@ struct FrozenFigures {
   double warm_up_moved_c = -1.0;   // how far the true casing had left the frozen reading then
   double hold_detect_s = -1.0;     // after the freeze; < 0: not detected by the end
   double hold_error_c = -1.0;      // the in-band error over the fixed window with the sensor frozen
+  std::vector<app::RecordRow> hold_rows;  // the run frozen in the hold
 };
 
 struct Outcome {
@@ -246,6 +251,8 @@ LoopFigures fig26(const PlantParams& plant, const app::ControllerConfig& control
   f.settle_s = r.summary.settle_s;
   f.error_c = in_band_error_c(r.rows);
   f.stuck_alarm = first_stuck(r.rows, 0.0) != nullptr;
+  f.runaway = std::any_of(r.rows.begin(), r.rows.end(),
+                          [](const app::RecordRow& row) { return (row.flags & app::kFlagLoopRunaway) != 0; });
   f.rows = std::move(r.rows);
   return f;
 }
@@ -261,10 +268,25 @@ FrozenFigures frozen(const PlantParams& plant, const app::ControllerConfig& cont
     f.warm_up_detect_s = row->time_s - kFreezeWarmUpS;
     f.warm_up_moved_c = std::fabs(row->casing_c - frozen_c);
   }
-  const app::SimulationResult hold = fig26_run(plant, controller, kFreezeHoldS);
+  app::SimulationResult hold = fig26_run(plant, controller, kFreezeHoldS);
   if (const app::RecordRow* row = first_stuck(hold.rows, kFreezeHoldS)) f.hold_detect_s = row->time_s - kFreezeHoldS;
   f.hold_error_c = in_band_error_c(hold.rows);
+  f.hold_rows = std::move(hold.rows);
   return f;
+}
+
+// The fig26 runs of a variant (--only: to look at), each loop's as
+// simulate --out writes simulation.csv: DIR/fig26_LOOP.csv, and the
+// model-based loop's with its sensor frozen in the hold: fig26_observer_frozen.csv.
+void write_fig26_records(const Outcome& o, const std::string& dir) {
+  const std::pair<const char*, const LoopFigures*> loops[] = {
+      {"oracle", &o.oracle}, {"observer", &o.model}, {"pid", &o.pid}, {"tuned", &o.tuned}, {"paper", &o.paper}};
+  for (const auto& [name, figures] : loops) {
+    if (!figures->rows.empty()) app::write_records_csv(figures->rows, dir + "/fig26_" + name + ".csv");
+  }
+  if (!o.model_frozen.hold_rows.empty()) {
+    app::write_records_csv(o.model_frozen.hold_rows, dir + "/fig26_observer_frozen.csv");
+  }
 }
 
 Outcome run_variant(const Variant& v, const std::string& dir, double ambient_step_c) {
@@ -359,15 +381,35 @@ std::string num(double v, const char* format) {
   return buf;
 }
 
-// Which loops raised temp_stuck with a healthy sensor (" FALSE STUCK: oracle, observer"; empty: none).
-std::string false_stuck_of(const Outcome& o) {
+// Which loops raised temp_stuck with a healthy sensor (" FALSE STUCK: oracle, observer"), and which
+// model-based loops loop_runaway (" RUNAWAY: observer"); empty: none.
+std::string alarms_of(const Outcome& o) {
   std::string who;
   for (const auto& [name, figures] : {std::pair<const char*, const LoopFigures*>{"oracle", &o.oracle},
                                       {"observer", &o.model}, {"pid", &o.pid}, {"tuned", &o.tuned},
                                       {"paper", &o.paper}}) {
     if (figures->stuck_alarm) who += std::string(who.empty() ? " FALSE STUCK: " : ", ") + name;
   }
-  return who;
+  std::string runaway;
+  for (const auto& [name, figures] :
+       {std::pair<const char*, const LoopFigures*>{"oracle", &o.oracle}, {"observer", &o.model}}) {
+    if (figures->runaway) runaway += std::string(runaway.empty() ? " RUNAWAY: " : ", ") + name;
+  }
+  return who + runaway;
+}
+
+// The runaway check over the suite (docs/FAULTS.md): where it handed the
+// model-based loops' TEC to the PID.
+std::string runaway_summary(const std::vector<Outcome>& outcomes) {
+  std::string oracle, model;
+  for (const auto& o : outcomes) {
+    if (o.oracle.runaway) oracle += (oracle.empty() ? "" : ", ") + o.variant.name;
+    if (o.model.runaway) model += (model.empty() ? "" : ", ") + o.variant.name;
+  }
+  return "- Runaway check (`loop_runaway`, docs/FAULTS.md: the model-based loop's command drove the reading away from "
+         "the setpoint, the PID took over), over the fig26 programme: the oracle " +
+         (oracle.empty() ? std::string("never") : "on " + oracle) + ", the model-based loop from data " +
+         (model.empty() ? std::string("never") : "on " + model) + ".\n";
 }
 
 // The stuck-sensor check over the suite (issue 75, item 3; docs/FAULTS.md).
@@ -697,6 +739,7 @@ int run(const Options& opt) {
     }
     outcomes.push_back(run_variant(all[k], opt.work + "/" + std::to_string(k + 1) + "_" + slug, opt.ambient_step_c));
     const Outcome& o = outcomes.back();
+    if (!opt.only.empty()) write_fig26_records(o, opt.work + "/" + std::to_string(k + 1) + "_" + slug);
     std::fprintf(stderr,
                  "[%zu/%zu] %-32s t_min %5.0f | oracle %5.0f s %.3f C | observer %5.0f s %.3f C | pid %5.0f s %.3f "
                  "C | tuned %5.0f s %.3f C | paper %5.0f s %.3f C | frozen: warm-up %3.0f s %.2f C, hold %4.0f s "
@@ -705,7 +748,7 @@ int run(const Options& opt) {
                  o.model.settle_s, o.model.error_c, o.pid.settle_s, o.pid.error_c, o.tuned.settle_s, o.tuned.error_c,
                  o.paper.settle_s, o.paper.error_c, o.model_frozen.warm_up_detect_s, o.model_frozen.warm_up_moved_c,
                  o.model_frozen.hold_detect_s, o.model_frozen.hold_error_c,
-                 false_stuck_of(o).c_str(),
+                 alarms_of(o).c_str(),
                  o.verdict.c_str(), o.feasible ? "" : " (infeasible plant)",
                  o.oracle_error.empty() ? "" : (" (oracle: " + o.oracle_error + ")").c_str());
   }
@@ -802,6 +845,7 @@ int run(const Options& opt) {
     }
   }
   md << stuck_summary(outcomes);
+  md << runaway_summary(outcomes);
   md << "- The reference loop (`oracle`: designed on the plant's own physics) on the " << feasible
      << " feasible variants: settles on " << oracle_settled << ", at most " << num(oracle_worst_excess_s, "%.0f")
      << " s after the physical minimum; largest in-band error " << num(oracle_worst_error, "%.3f") << " C"

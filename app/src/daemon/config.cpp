@@ -37,6 +37,8 @@ FailSafeLimits parse_failsafe(const TomlTable& t) {
   l.stuck_sigma_s = t.number("stuck_sigma_s", l.stuck_sigma_s, 0.0, 86400.0);
   l.stuck_probe_s = t.number("stuck_probe_s", l.stuck_probe_s, 0.0, 86400.0);
   l.stuck_probe_hold_s = t.number("stuck_probe_hold_s", l.stuck_probe_hold_s, 1.0, 3600.0);
+  l.runaway_s = t.number("runaway_s", l.runaway_s, 1.0, 86400.0);
+  l.runaway_c = t.number("runaway_c", l.runaway_c, 0.0625, 100.0);
   l.recovery_readings = static_cast<int>(t.integer("recovery_readings", l.recovery_readings, 1, 1000));
   l.min_valid_c = t.number("min_valid_c", l.min_valid_c, -55.0, 125.0);
   l.max_valid_c = t.number("max_valid_c", l.max_valid_c, -55.0, 125.0);
@@ -59,7 +61,7 @@ DaemonConfig parse_daemon_config(const toml::table& root, const std::string& sou
 
   const TomlTable failsafe(toml_section(root, "failsafe", source), "failsafe", source,
                            {"stale_periods", "stuck_s", "stuck_min_drive_a", "stuck_span_a", "stuck_sigma", "stuck_sigma_s", "stuck_probe_s",
-                            "stuck_probe_hold_s",
+                            "stuck_probe_hold_s", "runaway_s", "runaway_c",
                             "recovery_readings",
                             "over_temp_c", "opa548_cooldown_s", "adc_stall_s", "ambient_stale_s", "min_valid_c",
                             "max_valid_c"});

@@ -52,6 +52,8 @@ void validate(const ControllerConfig& c) {
   require(std::isfinite(l.stuck_probe_s) && l.stuck_probe_s >= 0.0, "stuck_probe_s", "must be zero (off) or positive");
   require(std::isfinite(l.stuck_probe_hold_s) && l.stuck_probe_hold_s > 0.0, "stuck_probe_hold_s",
           "must be positive");
+  require(std::isfinite(l.runaway_s) && l.runaway_s > 0.0, "runaway_s", "must be positive");
+  require(std::isfinite(l.runaway_c) && l.runaway_c > 0.0, "runaway_c", "must be positive");
   require(std::isfinite(l.opa548_cooldown_s) && l.opa548_cooldown_s >= 0.0, "opa548_cooldown_s",
           "must be zero or positive");
   require(std::isfinite(l.adc_stall_s) && l.adc_stall_s > 0.0, "adc_stall_s", "must be positive");
@@ -125,6 +127,7 @@ void Controller::apply_reload(ControllerReload& next) noexcept {
     // The old design stays alive in the reload (or the start) that brought it.
     config_.observer = c.observer;
     supervisor_.set_model_check(config_.observer != nullptr);
+    supervisor_.clear_loop_runaway();
     loop_.switch_observer(next.observer ? &*next.observer : nullptr);
   }
   applied_.store(&next, std::memory_order_release);
@@ -137,6 +140,10 @@ TecCommand Controller::on_pid_tick(double now_s) noexcept {
   // The stuck check's evidence: what the TEC drove this period.
   supervisor_.record_command(command.enable ? command.current_a : 0.0);
   supervisor_.on_reading_check(loop_.reading_surprise(), now_s);
+  supervisor_.on_loop_command(loop_.model_drove(), command.enable ? command.current_a : 0.0, loop_.active_setpoint_c(),
+                              now_s);
+  // From the next period on the PID holds in its place, until a reload brings another loop.
+  if ((supervisor_.flags() & kFlagLoopRunaway) != 0) loop_.fall_back_to_pid();
   // The probe needs a loop that can move the casing: the model-based one,
   // driving, off its current limit (there a live reading need not follow).
   if (loop_.model_drove() && (command.flags & kFlagTecSaturated) == 0) {

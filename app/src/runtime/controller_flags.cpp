@@ -18,6 +18,7 @@ const char* flag_name(std::uint32_t flag) noexcept {
     case kFlagRateDacFailed: return "rate_dac_failed";
     case kFlagUncontrolled: return "uncontrolled";
     case kFlagAmbientStale: return "ambient_stale";
+    case kFlagLoopRunaway: return "loop_runaway";
     default: return "";
   }
 }

@@ -40,6 +40,11 @@ constexpr FaultEntry kMatrix[] = {
      "no valid ambient reading for failsafe.ambient_stale_s: the loop goes on with the last one (feed-forward, the "
      "model-based loop's input)",
      "the next valid ambient reading"},
+    {kFlagLoopRunaway, "the model-based loop (a model far off where its record did not look)",
+     TecPath::pid, RateOutputState::compensated,
+     "the model-based loop drove the casing reading away from the setpoint for failsafe.runaway_s (by "
+     "failsafe.runaway_c): the PID holds in its place",
+     "a reload that brings another controller, or a restart"},
     {kFlagModelClamped, "the calibration (the casing or die outside its range; not a fault)", TecPath::drives,
      RateOutputState::clamped, "casing (or die) temperature outside the calibration's range: compensated at its end",
      "a compensation temperature inside the range"},
@@ -61,6 +66,7 @@ const char* describe(TecPath tec) noexcept {
     case TecPath::drives: return "drives";
     case TecPath::held: return "current held";
     case TecPath::off: return "off (0 A, OPA548 disabled)";
+    case TecPath::pid: return "the PID drives (in the model-based loop's place)";
   }
   return "";
 }

@@ -99,6 +99,30 @@ void FaultSupervisor::on_reading_check(double surprise, double now_s) noexcept {
 
 void FaultSupervisor::on_probe_failed() noexcept { raise_stuck(); }
 
+void FaultSupervisor::on_loop_command(bool model_drove, double current_a, double setpoint_c, double now_s) noexcept {
+  const double error_c = setpoint_c - casing_c_;
+  // Heating above the setpoint or cooling below it (0 A opposes nothing).
+  const bool opposes = model_drove && have_casing_ && current_a * error_c < 0.0;
+  if (!opposes) {
+    opposing_ = false;
+    return;
+  }
+  if (!opposing_) {
+    opposing_ = true;
+    opposing_since_s_ = now_s;
+    opposing_error_c_ = std::fabs(error_c);
+  }
+  if (now_s - opposing_since_s_ >= limits_.runaway_s &&
+      std::fabs(error_c) - opposing_error_c_ >= limits_.runaway_c) {
+    set_flag(flags_, kFlagLoopRunaway, true);
+  }
+}
+
+void FaultSupervisor::clear_loop_runaway() noexcept {
+  set_flag(flags_, kFlagLoopRunaway, false);
+  opposing_ = false;
+}
+
 bool FaultSupervisor::raise_stuck() noexcept {
   if (!have_casing_ || (flags_ & kFlagTempStuck) != 0) return false;
   set_flag(flags_, kFlagTempStuck, true);

@@ -29,6 +29,13 @@ void TecLoop::switch_observer(control::ObserverLoop* next) noexcept {
   observer_ = next;
 }
 
+void TecLoop::fall_back_to_pid() noexcept {
+  if (observer_ == nullptr) return;
+  observer_ = nullptr;
+  pid_.reset(0.0);
+  resume_integral_a_ = 0.0;
+}
+
 const TecCommand& TecLoop::off(double now_s, bool resume) noexcept {
   // The model-based loop's filter follows the housing through the stop
   // (0 A: the TEC is off), so that a restart does not start it anew.

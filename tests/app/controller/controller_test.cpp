@@ -372,7 +372,7 @@ TEST_CASE("every fault flag has a name for the journal, and a bit that is no fla
   for (const std::uint32_t f : {kFlagTempStale, kFlagTempInvalid, kFlagTempStuck, kFlagOverTempLatched,
                                 kFlagOpa548Thermal, kFlagAdcInvalid, kFlagModelClamped, kFlagTecSaturated, kFlagTecOff,
                                 kFlagAdcStalled, kFlagTecWriteFailed, kFlagRateDacFailed, kFlagUncontrolled,
-                                kFlagAmbientStale}) {
+                                kFlagAmbientStale, kFlagLoopRunaway}) {
     CHECK(std::string(flag_name(f)).size() > 3);
   }
   CHECK(std::string(flag_name(1u << 20)).empty());

@@ -8,10 +8,12 @@
 #include <limits>
 #include <functional>
 #include <string>
+#include <utility>
 
 #include "gyrotc/algorithms/fit/compensator.hpp"
 #include "gyrotc/app/runtime/controller.hpp"
 #include "gyrotc_catch.hpp"
+#include "misconfigured_loop.hpp"
 
 using namespace gyrotc::app;
 using gyrotc::hal::AdcSample;
@@ -38,9 +40,11 @@ struct Injection {
 struct MatrixRig {
   gyrotc::fit::Compensator compensator{gyrotc::fit::BiasModel::paper_reference()};
   ControllerConfig config;
-  Controller controller{config, compensator};
+  Controller controller;
   double now_s = 0.0;
   SampleResult last_sample;
+
+  explicit MatrixRig(ControllerConfig c = {}) : config(std::move(c)), controller(config, compensator) {}
 
   void second(const Injection& in) {
     now_s += 1.0;
@@ -125,6 +129,13 @@ void inject(MatrixRig& rig, std::uint32_t flag) {
       in.ambient_valid = false;
       rig.run(l.ambient_stale_s + 12.0, in);
       return;
+    case kFlagLoopRunaway:
+      // The rig's loop cools a casing below the setpoint, and it cools.
+      for (double t = 0.0; t < l.runaway_s + 30.0; t += 1.0) {
+        in.casing = reading_of(std::round((50.0 - t / 30.0) * 16.0) / 16.0);
+        rig.second(in);
+      }
+      return;
     case kFlagModelClamped:
       in.casing = reading_of(-45.0);  // below the paper's calibration (-40 C), a valid reading
       rig.run(4.0, in);
@@ -150,7 +161,9 @@ TEST_CASE("every flag the journal tells has an entry in the fault matrix, and ev
 TEST_CASE("each fault of the matrix stops what the matrix says and no more, on a controller holding a casing") {
   for (const FaultEntry& e : fault_matrix()) {
     DYNAMIC_SECTION(flag_name(e.flag)) {
-      MatrixRig rig;
+      // A loop that cools below the setpoint (it holds against a 60 C room).
+      MatrixRig rig(e.tec == TecPath::pid ? gyrotc::test::misconfigured_loop_config(-40.0, 60.0, 2.0)
+                                          : ControllerConfig{});
       rig.run(20.0, {});
       const TecCommand before = rig.controller.last_command();
       REQUIRE(before.enable);
@@ -165,6 +178,10 @@ TEST_CASE("each fault of the matrix stops what the matrix says and no more, on a
           CHECK(now.current_a == before.current_a);
           break;
         case TecPath::off: CHECK_FALSE(now.enable); break;
+        case TecPath::pid:
+          CHECK(now.enable);
+          CHECK(std::isnan(rig.controller.loop_estimate().held_c));  // no model-based loop runs
+          break;
       }
       CHECK(((flags & kFlagUncontrolled) != 0) == (e.rate == RateOutputState::uncontrolled));
       switch (e.rate) {

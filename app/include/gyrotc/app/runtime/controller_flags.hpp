@@ -23,6 +23,7 @@ enum ControllerFlag : std::uint32_t {
   kFlagRateDacFailed = 1u << 11,  // the rate DAC refused the compensated output: the analog rate is stale
   kFlagUncontrolled = 1u << 12,   // a fault stopped the TEC: the rate is compensated at a temperature not held
   kFlagAmbientStale = 1u << 13,   // no valid ambient reading for ambient_stale_s: the loop uses the last one
+  kFlagLoopRunaway = 1u << 14,    // the model-based loop drove the reading away from the setpoint: the PID holds
 };
 
 // The faults: the flags that stop the TEC path or make the rate output
@@ -31,7 +32,7 @@ enum ControllerFlag : std::uint32_t {
 inline constexpr std::uint32_t kFaultFlags = kFlagTempStale | kFlagTempInvalid | kFlagTempStuck |
                                              kFlagOverTempLatched | kFlagOpa548Thermal | kFlagAdcInvalid |
                                              kFlagAdcStalled | kFlagTecWriteFailed | kFlagRateDacFailed |
-                                             kFlagAmbientStale;
+                                             kFlagAmbientStale | kFlagLoopRunaway;
 // The faults of the TEC path (the casing sensor, the OPA548, the TEC DAC):
 // while one of them has the TEC off, the rate output is flagged uncontrolled.
 inline constexpr std::uint32_t kTecPathFaults = kFlagTempStale | kFlagTempInvalid | kFlagTempStuck |

@@ -15,6 +15,7 @@ enum class TecPath {
   drives,  // the loop goes on
   held,    // the last current, until the reading goes stale
   off,     // 0 A, the OPA548 disabled
+  pid,     // the PID drives in the model-based loop's place
 };
 
 // What the rate output does while the flag is raised.

@@ -9,7 +9,7 @@
 // The Controller's fault supervisor: what the readings, the ADC's samples,
 // the OPA548 and the TEC path say of the board, as flags (temp_stale,
 // temp_invalid, temp_stuck, over_temp_latched, opa548_thermal, adc_stalled,
-// tec_write_failed, ambient_stale), and the casing and ambient readings the TEC loop may
+// tec_write_failed, ambient_stale, loop_runaway), and the casing and ambient readings the TEC loop may
 // use. It decides nothing about the current: the Controller reads its flags.
 namespace gyrotc::app {
 
@@ -40,6 +40,15 @@ struct FailSafeLimits {
   // stuck_probe_hold_s each; one that follows neither is stuck. 0: off.
   double stuck_probe_s = 0.0;
   double stuck_probe_hold_s = 60.0;
+  // Runaway: the model-based loop's command has pushed the reading away from
+  // the setpoint (heating above it, cooling below it) at every period for
+  // runaway_s, and the reading has moved at least runaway_c further away
+  // meanwhile. No model need be right for this to be wrong: the PID takes
+  // over (its integral turns towards the setpoint whatever the housing). A
+  // loop braking on its way to the setpoint opposes the error too, but the
+  // reading comes closer.
+  double runaway_s = 120.0;
+  double runaway_c = 1.0;
   // Consecutive good readings that clear a stale/invalid/stuck fault.
   int recovery_readings = 3;
   // Casing over-temperature: latched off (the DS18B20 itself goes to 125 C).
@@ -87,6 +96,11 @@ class FaultSupervisor {
   void on_reading_check(double surprise, double now_s) noexcept;
   // The active probe found the reading following neither edge.
   void on_probe_failed() noexcept;
+  // The period's command of the model-based loop (model_drove; false: the
+  // PID, a programme, or off) against the setpoint it held: the runaway check.
+  void on_loop_command(bool model_drove, double current_a, double setpoint_c, double now_s) noexcept;
+  // A new model-based loop (a reload): the runaway verdict was the old one's.
+  void clear_loop_runaway() noexcept;
   // How long the casing reading has not changed (0 without one).
   double reading_unchanged_s(double now_s) const noexcept { return have_casing_ ? now_s - changed_at_s_ : 0.0; }
   // Whether the loop checks its readings so (the model-based loop does).
@@ -125,6 +139,9 @@ class FaultSupervisor {
   bool model_check_ = false;
   bool surprised_ = false;          // the model's check failed at every period since surprised_since_s_
   double surprised_since_s_ = 0.0;
+  bool opposing_ = false;           // the model-based loop's command opposed the error at every period since
+  double opposing_since_s_ = 0.0;   // then, when the reading was
+  double opposing_error_c_ = 0.0;   // this far from the setpoint
 
   bool ambient_expected_ = false;  // an ambient sensor reports (valid or not)
   bool have_ambient_ = false;

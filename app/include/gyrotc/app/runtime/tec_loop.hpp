@@ -67,6 +67,10 @@ class TecLoop {
   // (control::ObserverLoop::adopt; the PID with its integral at the current
   // applied). `next` is built off this thread and outlives its use here.
   void switch_observer(control::ObserverLoop* next) noexcept;
+  // The PID in the model-based loop's place from the next period on (a
+  // runaway), its integral from 0 A: what that loop learnt of the load is
+  // what went wrong. Nothing with the PID already.
+  void fall_back_to_pid() noexcept;
 
   bool pid_running() const noexcept { return pid_running_; }
   // Whether a restart continues with the integral a fault stopped the PID at.
