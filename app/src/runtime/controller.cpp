@@ -142,8 +142,12 @@ TecCommand Controller::on_pid_tick(double now_s) noexcept {
   supervisor_.on_reading_check(loop_.reading_surprise(), now_s);
   supervisor_.on_loop_command(loop_.model_drove(), command.enable ? command.current_a : 0.0, loop_.active_setpoint_c(),
                               now_s);
-  // From the next period on the PID holds in its place, until a reload brings another loop.
-  if ((supervisor_.flags() & kFlagLoopRunaway) != 0) loop_.fall_back_to_pid();
+  // From the next period on the PID holds in its place, until a reload brings
+  // another loop; its stuck check is the PID's (the command's swing).
+  if ((supervisor_.flags() & kFlagLoopRunaway) != 0) {
+    loop_.fall_back_to_pid();
+    supervisor_.set_model_check(false);
+  }
   // The probe needs a loop that can move the casing: the model-based one,
   // driving, off its current limit (there a live reading need not follow).
   if (loop_.model_drove() && (command.flags & kFlagTecSaturated) == 0) {
