@@ -146,3 +146,18 @@ TEST_CASE("a reload that brings another model-based loop clears loop_runaway and
   CHECK(cmd.current_a < 0.0);
   CHECK(std::isfinite(rig.controller.loop_estimate().held_c));
 }
+
+TEST_CASE("once the PID holds in the runaway loop's place a frozen reading under its swinging command raises temp_stuck") {
+  RunawayRig rig(runaway_config(), 56.0);
+  rig.run_for(rig.config.limits.runaway_s + 40.0, 2.0 / 60.0);
+  REQUIRE((rig.controller.flags() & kFlagLoopRunaway) != 0);
+  // The reading freezes an eighth of a degree below the setpoint: the PID's
+  // integral swings the command from cooling through 0 A to heating, so only
+  // the swing (stuck_span_a), not the drive (stuck_min_drive_a), shows the
+  // casing should have moved. The model's check would never fire: no model runs.
+  rig.casing_c = rig.config.setpoint_c - 0.1;
+  const TecCommand held = rig.run_for(rig.config.limits.stuck_s / 2.0, 0.0);
+  REQUIRE((held.flags & kFlagTempStuck) == 0);
+  const TecCommand cmd = rig.run_for(rig.config.limits.stuck_s, 0.0);
+  CHECK((cmd.flags & kFlagTempStuck) != 0);
+}
