@@ -186,6 +186,7 @@ ObserverLoopDesign design_observer_loop(const HousingModel& model, const Observe
       !(spec.initial_heat_w > 0.0)) {
     throw std::invalid_argument("observer loop: the period, noises and weights must be positive");
   }
+  if (!(spec.casing_weight >= 0.0)) throw std::invalid_argument("observer loop: the casing's weight must be 0 or more");
   HousingStepper stepper(model, spec.max_step_s);
   ObserverLoopDesign d;
   d.model = model;
@@ -230,6 +231,9 @@ ObserverLoopDesign design_observer_loop(const HousingModel& model, const Observe
   Eigen::MatrixXd c = Eigen::MatrixXd::Zero(1, n);
   c(0, model.network.casing_sensor.node) = 1.0;
   Eigen::MatrixXd q = c.transpose() * c / (spec.error_scale_c * spec.error_scale_c);
+  if (model.network.casing_sensor.node != model.network.tec_to) {
+    q(model.network.tec_to, model.network.tec_to) += spec.casing_weight / (spec.error_scale_c * spec.error_scale_c);
+  }
   q.diagonal().array() += 1e-9;
   Eigen::MatrixXd r(1, 1);
   r(0, 0) = 1.0 / (spec.current_scale_a * spec.current_scale_a);

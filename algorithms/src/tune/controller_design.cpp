@@ -25,9 +25,12 @@ double quantise(double temp_c, double step_c) { return std::nearbyint(temp_c / s
 struct Linear {
   ThermalMatrix a;
   double b1, b2;  // d/dI of the network's right-hand side
+  double side_per_s, side_tau_s;  // the side node (thermal_model.hpp)
   cd at(double w) const {
     const cd s(0.0, w);
-    return ((s - a.a22) * b1 + a.a12 * b2) / ((s - a.a11) * (s - a.a22) - a.a12 * a.a21);
+    // The side node draws h (Tc - Tb), Tb = Tc / (1 + s tau_b), from the casing.
+    const cd a11 = a.a11 - side_per_s * s * side_tau_s / (1.0 + s * side_tau_s);
+    return ((s - a.a22) * b1 + a.a12 * b2) / ((s - a11) * (s - a.a22) - a.a12 * a.a21);
   }
 };
 
@@ -38,7 +41,7 @@ Linear linearise(const ThermalModel& m, const DesignSpec& spec, double ambient_c
   const double a = m.peltier_per_a_s;
   const double b = m.joule_k_per_a2_s;
   return {thermal_matrix(m, i0, ambient_c), a * (x.casing_c + kKelvin) + 2.0 * b * i0,
-          m.capacity_ratio() * (-a * (x.shell_c + kKelvin) + 2.0 * b * i0)};
+          m.capacity_ratio() * (-a * (x.shell_c + kKelvin) + 2.0 * b * i0), m.side_per_s, m.side_tau_s};
 }
 
 // L(jw): PID (z = e^{jwT}), zero-order hold, plant, sensor lag, dead time and

@@ -23,6 +23,11 @@ constexpr double kHoldLimitA = 10.0;
 constexpr double kLeastLagS = 1.0;
 // The lag node's capacity per the casing's: its heat is a rounding error.
 constexpr double kLagNodeCapacity = 1e-3;
+// The casing's share of the LQ cost beside that node (ObserverLoopSpec::
+// casing_weight): the lag may be the DS18B20's package on the casing or a node
+// of its own, and a record cannot tell (how 0.3 was chosen and checked:
+// docs/TUNING.md, section 7).
+constexpr double kCasingWeight = 0.3;
 
 }  // namespace
 
@@ -58,6 +63,11 @@ control::HousingModel identified_housing(const ThermalModel& m, double current_l
     if (q > 0.0) n.links.push_back({2, model::kAmbientNode, q * kLagNodeCapacity / lag_s});
     n.casing_sensor.node = 2;
   }
+  if (m.side_per_s > 0.0) {
+    // The side node: G_side = h, C_side = h tau_b, per unit of the casing's capacity.
+    n.nodes.push_back({"side node", m.side_per_s * m.side_tau_s, 0.0});
+    n.links.push_back({0, static_cast<int>(n.nodes.size()) - 1, m.side_per_s});
+  }
   n.ambient_sensor = model::NetworkSensor{model::kAmbientNode, 0.0, 0.0, 0.0};
   control::validate(h);
   return h;
@@ -69,6 +79,7 @@ control::ObserverLoopSpec identified_observer_spec(const ThermalFit& fit, double
   spec.period_s = period_s;
   spec.setpoint_c = setpoint_c;
   spec.design_ambient_c = design_ambient_c;
+  spec.casing_weight = kCasingWeight;
   double heat_se = 0.0;
   for (const Estimate& e : fit.estimates) {
     if (e.name == "internal_k_per_s") heat_se = e.std_error;

@@ -92,31 +92,34 @@ constexpr double kNoRailA = 50.0;
 // The parameter vector theta (what the fit searches).
 enum Index : std::size_t {
   kLogPeltier, kLogJoule, kLogLoss, kLogShellRatio, kLogShellTau, kRestRise, kDelay, kLagShare,
-  kLogRail, kCasing0, kShell0, kAmbientShare, kLogLimit, kAmbient, kCount
+  kLogRail, kCasing0, kShell0, kAmbientShare, kLogLimit, kLogSide, kLogSideTau, kAmbient, kCount
 };
+// No side node: a coupling whose exponential is 0.
+constexpr double kNoSide = -1000.0;
 
 // The parameters a search moves: the constant ambient only without an
 // ambient column, the sensor's share of the ambient only with one and when
 // asked (against a constant ambient that share is one more static offset,
 // which the loss and the internal heat already are), the stage's current
-// limit only when asked.
-std::vector<std::size_t> searched_parameters(bool ambient_measured, bool sensor_share, bool stage_limit) {
+// limit and the side node only when asked.
+std::vector<std::size_t> searched_parameters(bool ambient_measured, bool sensor_share, bool stage_limit, bool side) {
   std::vector<std::size_t> idx;
   for (std::size_t j = 0; j < kCount; ++j) {
     if (j == kAmbient && ambient_measured) continue;
     if (j == kAmbientShare && !(ambient_measured && sensor_share)) continue;
     if (j == kLogLimit && !stage_limit) continue;
+    if ((j == kLogSide || j == kLogSideTau) && !side) continue;
     idx.push_back(j);
   }
   return idx;
 }
 
-// A parameter beyond the basic model (the sensor's share of the ambient, the
-// stage's current limit) joins it when the record asks for it: Schwarz's
-// criterion over the residual's effective samples (the rows are correlated,
-// and every row counted would take any small gain).
-bool parameter_improves_fit(double sse_without, double sse_with, double effective_samples) {
-  return effective_samples * std::log(sse_with / sse_without) + std::log(effective_samples) < 0.0;
+// Parameters beyond the basic model (the sensor's share of the ambient, the
+// stage's current limit, the side node's two) join it when the record asks
+// for them: Schwarz's criterion over the residual's effective samples (the
+// rows are correlated, and every row counted would take any small gain).
+bool parameters_improve_fit(double sse_without, double sse_with, double effective_samples, int added) {
+  return effective_samples * std::log(sse_with / sse_without) + added * std::log(effective_samples) < 0.0;
 }
 
 // Parameters the data pin down each on their own (strongly correlated pairs
@@ -140,6 +143,8 @@ ThermalModel model_of(const std::vector<double>& th) {
   m.sensor_ambient_share = th[kAmbientShare];
   m.rail_a = std::exp(th[kLogRail]) + kRailReferenceK * m.rail_a_per_c();
   m.stage_limit_a = std::exp(th[kLogLimit]);
+  m.side_per_s = std::exp(th[kLogSide]);
+  m.side_tau_s = std::exp(th[kLogSideTau]);
   return m;
 }
 
@@ -391,7 +396,7 @@ ThermalFit identify_thermal(const TuneRecord& record, double experiment_scale) {
   // without the sensor's share of the ambient, then, where the room moved,
   // with it (below). Every index below kAmbientShare is the same in the full
   // and the searched vectors.
-  std::vector<std::size_t> searched = searched_parameters(ambient_measured, false, false);
+  std::vector<std::size_t> searched = searched_parameters(ambient_measured, false, false, false);
   std::vector<double> full_lower(kCount, 0.0);
   std::vector<double> full_upper(kCount, 0.0);
   auto bound = [&](std::size_t j, double lo, double hi) {
@@ -406,6 +411,8 @@ ThermalFit identify_thermal(const TuneRecord& record, double experiment_scale) {
     std::vector<double> full(kCount, 0.0);
     full[kAmbient] = ambient_guess;
     full[kLogLimit] = std::log(kNoRailA);
+    full[kLogSide] = kNoSide;
+    full[kLogSideTau] = std::log(100.0);
     for (std::size_t j = 0; j < searched.size(); ++j) full[searched[j]] = reduced[j];
     return full;
   };
@@ -427,9 +434,11 @@ ThermalFit identify_thermal(const TuneRecord& record, double experiment_scale) {
   bound(kShell0, record.sensor_c.front() - 20.0, record.sensor_c.front() + 20.0);
   bound(kAmbientShare, 0.0, 0.5);
   bound(kLogLimit, std::log(0.02), std::log(kNoRailA));
+  bound(kLogSide, std::log(1e-5), std::log(0.1));
+  bound(kLogSideTau, std::log(5.0), std::log(3000.0));
   bound(kAmbient, *tmin - 60.0, *tmax + 10.0);
-  auto use_parameters = [&](bool sensor_share, bool stage_limit) {
-    searched = searched_parameters(ambient_measured, sensor_share, stage_limit);
+  auto use_parameters = [&](bool sensor_share, bool stage_limit, bool side = false) {
+    searched = searched_parameters(ambient_measured, sensor_share, stage_limit, side);
     model.theta_lower = reduce(full_lower);
     model.theta_upper = reduce(full_upper);
   };
@@ -662,7 +671,7 @@ ThermalFit identify_thermal(const TuneRecord& record, double experiment_scale) {
     if (refined.sse < with.sse) with = std::move(refined);
     const std::vector<double> residual_with(with.residual.data(), with.residual.data() + n);
     const double effective = identify::effective_sample_size(n, identify::lag1_autocorrelation(residual_with));
-    if (parameter_improves_fit(without.sse, with.sse, effective)) return with;
+    if (parameters_improve_fit(without.sse, with.sse, effective, 1)) return with;
     use_parameters(share_fitted, false);
     return std::nullopt;
   };
@@ -696,6 +705,62 @@ ThermalFit identify_thermal(const TuneRecord& record, double experiment_scale) {
     }
   }
 
+  // A side node on the casing (a board, a lid: a part that takes heat from
+  // the casing on the way up and gives it back, which the sensor does not
+  // see). A fit still above the floor tries it: Levenberg-Marquardt from that
+  // fit with the node set on a grid of couplings and time constants (the best
+  // three); it joins the model if its two parameters earn their place.
+  bool side_fitted = false;
+  const ThermalModel lumped_model = model_of(expand(sf.theta));
+  if (sf.sse >= good_sse) {
+    use_parameters(share_fitted, limit_fitted, true);
+    struct SideStart {
+      std::vector<double> theta;
+      double sse;
+    };
+    std::vector<SideStart> side_starts;
+    for (double coupling : {3e-4, 1e-3, 3e-3, 1e-2}) {
+      for (double tau_s : {30.0, 100.0, 300.0, 1000.0}) {
+        std::vector<double> th = expand(sf.theta);
+        th[kLogSide] = std::log(coupling);
+        th[kLogSideTau] = std::log(tau_s);
+        th = reduce(th);
+        const double start_sse = sse_of(th);
+        side_starts.push_back({std::move(th), start_sse});
+      }
+    }
+    std::sort(side_starts.begin(), side_starts.end(),
+              [](const SideStart& a, const SideStart& b) { return a.sse < b.sse; });
+    std::optional<identify::SeparableFit> with;
+    for (std::size_t k = 0; k < 3; ++k) {
+      model.theta_grid = {side_starts[k].theta};
+      identify::SeparableFit f = identify::fit_separable(y, model);
+      if (!with || f.sse < with->sse) with = std::move(f);
+    }
+    const std::vector<double> residual_with(with->residual.data(), with->residual.data() + n);
+    const double rho = identify::lag1_autocorrelation(residual_with);
+    const double effective = identify::effective_sample_size(n, rho);
+    // And only if the record pins the node down without losing the TEC: its
+    // two parameters within a factor e (one standard error in the log) and
+    // the Peltier term still screened (below), on the long-run covariance.
+    auto pinned_down = [&] {
+      const Eigen::MatrixXd cov =
+          hac_covariance(identify::model_jacobian(model, with->theta, with->beta, nullptr), with->residual,
+                         with->covariance_unscaled, hac_bandwidth(residual_with, rho));
+      auto sd_at = [&](std::size_t full_index) {
+        const auto at = std::find(searched.begin(), searched.end(), full_index) - searched.begin();
+        return std::sqrt(std::max(0.0, cov(at, at)));
+      };
+      return sd_at(kLogSide) < 1.0 && sd_at(kLogSideTau) < 1.0 && 1.0 / sd_at(kLogPeltier) > kMinPeltierTRatio;
+    };
+    if (parameters_improve_fit(sf.sse, with->sse, effective, 2) && pinned_down()) {
+      sf = std::move(*with);
+      side_fitted = true;
+    } else {
+      use_parameters(share_fitted, limit_fitted);
+    }
+  }
+
   ThermalFit fit;
   fit.theta = expand(sf.theta);
   fit.model = model_of(fit.theta);
@@ -704,6 +769,8 @@ ThermalFit identify_thermal(const TuneRecord& record, double experiment_scale) {
   fit.ambient_range_c = ambient_range_c;
   fit.sensor_share_fitted = share_fitted;
   fit.stage_limit_fitted = limit_fitted;
+  fit.side_fitted = side_fitted;
+  fit.lumped_model = lumped_model;
   fit.ambient_c = ambient_measured ? ambient.front() : fit.theta[kAmbient];
   fit.samples = n;
   fit.duration_s = record.time_s.back() - record.time_s.front();
@@ -807,6 +874,10 @@ ThermalFit identify_thermal(const TuneRecord& record, double experiment_scale) {
   if (limit_fitted) {
     fit.estimates.push_back(derived_estimate(
         "stage_limit_a", "A", [](const ThermalModel& m) { return m.stage_limit_a; }, 0.1 * fit.model.stage_limit_a));
+  }
+  if (side_fitted) {
+    fit.estimates.push_back(log_estimate("side_per_s", "1/s", kLogSide));
+    fit.estimates.push_back(log_estimate("side_tau_s", "s", kLogSideTau));
   }
   if (!ambient_measured) fit.estimates.push_back(plain_estimate("ambient_c", "C", kAmbient, 5.0));
 

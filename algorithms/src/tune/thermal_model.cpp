@@ -13,12 +13,13 @@ constexpr double kMaxStepS = 2.0;
 
 // The model's rates, computed once for a run of many steps.
 struct Coefficients {
-  double a, b, g, r, e, p, s_per_r, rail, limit;
+  double a, b, g, r, e, p, s_per_r, rail, limit, h, tau_b;
 };
 
 Coefficients coefficients(const ThermalModel& m) noexcept {
   return {m.peltier_per_a_s, m.joule_k_per_a2_s, m.casing_shell_per_s(), m.capacity_ratio(),
-          m.shell_ambient_per_s(), m.internal_k_per_s, m.rail_a_per_c(), m.rail_a, m.stage_limit_a};
+          m.shell_ambient_per_s(), m.internal_k_per_s, m.rail_a_per_c(), m.rail_a, m.stage_limit_a,
+          m.side_per_s, m.side_tau_s};
 }
 
 ThermalMatrix matrix(const Coefficients& c, double i, double ambient_c) noexcept {
@@ -44,16 +45,34 @@ double applied(const Coefficients& c, const ThermalState& x, double command_a) n
   return clip(clip(command_a, lo, hi), -c.limit, c.limit);
 }
 
-ThermalState trapezoid(const ThermalMatrix& k, const ThermalState& x, double h) noexcept {
+ThermalState trapezoid(const Coefficients& c, const ThermalMatrix& k, const ThermalState& x, double h) noexcept {
   const double hh = 0.5 * h;
-  const double m11 = 1.0 - hh * k.a11;
+  double m11 = 1.0 - hh * k.a11;
   const double m12 = -hh * k.a12;
   const double m21 = -hh * k.a21;
   const double m22 = 1.0 - hh * k.a22;
-  const double r1 = x.casing_c + hh * (k.a11 * x.casing_c + k.a12 * x.shell_c) + h * k.b1;
+  double r1 = x.casing_c + hh * (k.a11 * x.casing_c + k.a12 * x.shell_c) + h * k.b1;
   const double r2 = x.shell_c + hh * (k.a21 * x.casing_c + k.a22 * x.shell_c) + h * k.b2;
+  if (c.h <= 0.0) {
+    const double det = m11 * m22 - m12 * m21;
+    return {(r1 * m22 - m12 * r2) / det, (m11 * r2 - m21 * r1) / det};
+  }
+  // The side node's row, (1 + u) Tb' - u Tc' = r3 with u = hh / tau_b, solved
+  // for Tb' and put into the casing's row: the same 2x2 system.
+  const double u = hh / c.tau_b;
+  const double r3 = x.side_c + u * (x.casing_c - x.side_c);
+  m11 += hh * c.h * (1.0 - u / (1.0 + u));
+  r1 += hh * c.h * (x.side_c - x.casing_c) + hh * c.h * r3 / (1.0 + u);
   const double det = m11 * m22 - m12 * m21;
-  return {(r1 * m22 - m12 * r2) / det, (m11 * r2 - m21 * r1) / det};
+  const double casing_c = (r1 * m22 - m12 * r2) / det;
+  return {casing_c, (m11 * r2 - m21 * r1) / det, (r3 + u * casing_c) / (1.0 + u)};
+}
+
+// The side node, where the state leaves it unset, at the casing's temperature.
+ThermalState with_side(const ThermalState& x) noexcept {
+  ThermalState y = x;
+  if (std::isnan(y.side_c)) y.side_c = y.casing_c;
+  return y;
 }
 
 }  // namespace
@@ -96,16 +115,17 @@ ThermalState step(const ThermalModel& m, const ThermalState& x, double command_a
   const Coefficients c = coefficients(m);
   const int n = std::max(1, static_cast<int>(std::ceil(h_s / kMaxStepS - 1e-9)));
   const double h = h_s / n;
-  ThermalState y = x;
-  for (int j = 0; j < n; ++j) y = trapezoid(matrix(c, applied(c, y, command_a), ambient_c), y, h);
+  ThermalState y = with_side(x);
+  for (int j = 0; j < n; ++j) y = trapezoid(c, matrix(c, applied(c, y, command_a), ambient_c), y, h);
   return y;
 }
 
 ThermalState steady_state(const ThermalModel& m, double i, double ambient_c) noexcept {
   const ThermalMatrix k = thermal_matrix(m, i, ambient_c);
   const double det = k.a11 * k.a22 - k.a12 * k.a21;
-  // A x = -b
-  return {(-k.b1 * k.a22 + k.a12 * k.b2) / det, (-k.a11 * k.b2 + k.a21 * k.b1) / det};
+  // A x = -b; the side node, holding no heat, at the casing's temperature.
+  const double casing_c = (-k.b1 * k.a22 + k.a12 * k.b2) / det;
+  return {casing_c, (-k.a11 * k.b2 + k.a21 * k.b1) / det, casing_c};
 }
 
 namespace {
@@ -164,7 +184,7 @@ void simulate_sensor(const ThermalModel& m, const ThermalState& initial, std::sp
   // What the sensor's lag follows, (1 - q) Tc + q Ta, lagged at every record
   // time (exact for an input moving linearly over the step).
   const Coefficients c = coefficients(m);
-  ThermalState x = initial;
+  ThermalState x = with_side(initial);
   scratch[0] = m.steady_reading_c(x.casing_c, ambient_c[0]);
   const double tau = m.sensor_lag_s;
   double last_h = -1.0;
@@ -176,7 +196,7 @@ void simulate_sensor(const ThermalModel& m, const ThermalState& initial, std::sp
     const double before_c = m.steady_reading_c(x.casing_c, ambient_c[j - 1]);
     const int steps = std::max(1, static_cast<int>(std::ceil(h_s / kMaxStepS - 1e-9)));
     const double h = h_s / steps;
-    for (int s = 0; s < steps; ++s) x = trapezoid(matrix(c, applied(c, x, command_a[j - 1]), ta), x, h);
+    for (int s = 0; s < steps; ++s) x = trapezoid(c, matrix(c, applied(c, x, command_a[j - 1]), ta), x, h);
     const double after_c = m.steady_reading_c(x.casing_c, ambient_c[j]);
     if (tau <= 0.0) {
       scratch[j] = after_c;

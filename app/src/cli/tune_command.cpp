@@ -123,10 +123,11 @@ void print_text(const nlohmann::json& j, const std::string& source, const std::s
   }
   if (!j["observer"].is_null()) {
     const auto& o = j["observer"];
-    std::printf("  model-based loop (type = \"observer\"): %d states (casing, shell%s%s), period %.3g s; at the "
+    std::printf("  model-based loop (type = \"observer\"): %d states (casing, shell%s%s%s), period %.3g s; at the "
                 "design point it holds %.3f A, the filter's spectral radius %.4f, the loop's %.4f (stable below 1)\n",
                 o["states"].get<int>(), o["sensor_node"].get<bool>() ? ", the sensor's node" : "",
-                o["sensor_lag_s"].get<double>() > 0.0 ? ", the sensor's lag" : "", o["period_s"].get<double>(),
+                o["sensor_lag_s"].get<double>() > 0.0 ? ", the sensor's lag" : "",
+                o["side_node"].get<bool>() ? ", a side node on the casing" : "", o["period_s"].get<double>(),
                 o["operating_current_a"].get<double>(), o["observer_spectral_radius"].get<double>(),
                 o["loop_spectral_radius"].get<double>());
     std::printf("  readings taken as 1/16 C steps with %.4f C of noise; stuck-sensor drive threshold %.3g A\n",

@@ -54,6 +54,8 @@ constexpr ModelKey kModelKeys[] = {
     {"sensor_ambient_share", &tune::ThermalModel::sensor_ambient_share, 0.0, 0.9, false},
     {"rail_a", &tune::ThermalModel::rail_a, 1e-6, 1e6},
     {"stage_limit_a", &tune::ThermalModel::stage_limit_a, 1e-6, 1e6, false},
+    {"side_per_s", &tune::ThermalModel::side_per_s, 0.0, 1.0, false},
+    {"side_tau_s", &tune::ThermalModel::side_tau_s, 1e-3, 1e7, false},
 };
 
 void parse_pid(const toml::table& root, const std::string& name, ControllerFile& c) {
@@ -93,6 +95,7 @@ constexpr SpecKey kSpecKeys[] = {
     {"node_walk_c_per_sqrt_s", &control::ObserverLoopSpec::node_c_per_sqrt_s, 1e-9, 100.0, false},
     {"error_scale_c", &control::ObserverLoopSpec::error_scale_c, 1e-6, 100.0, false},
     {"current_scale_a", &control::ObserverLoopSpec::current_scale_a, 1e-6, 100.0, false},
+    {"casing_weight", &control::ObserverLoopSpec::casing_weight, 0.0, 100.0, false},
 };
 
 // Whether keys (an array of structs with a `key`) names key.

@@ -107,7 +107,7 @@ TuneResult tune_from_record(const TuneInput& input) {
   }
   start = std::chrono::steady_clock::now();
   try {
-    r.design = tune::design_controller(r.fit.model, r.spec);
+    r.design = tune::design_controller(r.fit.lumped_model, r.spec);
     r.pid_designed = true;
   } catch (const std::invalid_argument& e) {
     if (input.loop == TuneLoop::pid) throw InputError(input.source + ": " + e.what());
@@ -324,7 +324,8 @@ nlohmann::json tune_json(const TuneResult& r) {
               {"ambient_measured", f.ambient_measured},
               {"rail_reached", f.rail_reached},
               {"sensor_share_fitted", f.sensor_share_fitted},
-              {"stage_limit_fitted", f.stage_limit_fitted}};
+              {"stage_limit_fitted", f.stage_limit_fitted},
+              {"side_fitted", f.side_fitted}};
   json params = json::array();
   for (const auto& e : f.estimates) {
     params.push_back({{"name", e.name},
@@ -402,6 +403,7 @@ nlohmann::json tune_json(const TuneResult& r) {
                      {"states", o.model.state_count()},
                      {"sensor_node", o.model.network.casing_sensor.node != 0},
                      {"sensor_lag_s", o.model.network.casing_sensor.tau_s},
+                     {"side_node", r.fit.side_fitted},
                      {"operating_current_a", o.operating_current_a},
                      {"feedback_a_per_c", feedback},
                      {"observer_spectral_radius", o.observer_radius},

@@ -60,6 +60,27 @@ TEST_CASE("the identified housing follows the identified model through a warm-up
   CHECK(x(1) == Approx(want.shell_c).margin(0.02));
 }
 
+TEST_CASE("an identified side node becomes a node on the casing that follows the identified model through a warm-up") {
+  tune::ThermalModel m = identified();
+  m.side_per_s = 1.3e-3;  // a board of 0.23 of the casing's capacity, 180 s behind it
+  m.side_tau_s = 180.0;
+  const control::HousingModel housing = tune::identified_housing(m, 1.0);
+  REQUIRE(housing.node_count() == 3);
+  CHECK(housing.network.nodes[2].capacity_j_per_k == Approx(1.3e-3 * 180.0));
+  control::HousingStepper stepper(housing, 0.05);
+  Eigen::VectorXd x = Eigen::VectorXd::Constant(stepper.model().state_count(), 16.0);
+  tune::ThermalState want{16.0, 16.0, 16.0};
+  for (int s = 0; s < 600; ++s) {
+    stepper.advance(x, 1.0, control::HousingInput{0.9, 16.0, 0.0});
+    for (int k = 0; k < 20; ++k) want = tune::step(m, want, 0.9, 16.0, 0.05);
+  }
+  INFO("casing " << want.casing_c << " C, side " << want.side_c << " C");
+  CHECK(want.casing_c - want.side_c > 2.0);  // the side node lags the warm-up
+  CHECK(x(0) == Approx(want.casing_c).margin(0.02));
+  CHECK(x(1) == Approx(want.shell_c).margin(0.02));
+  CHECK(x(2) == Approx(want.side_c).margin(0.02));
+}
+
 TEST_CASE("the identified housing's stage clips the current at the identified rail") {
   const tune::ThermalModel m = identified();
   control::HousingStepper stepper(tune::identified_housing(m, 5.0), 0.1);

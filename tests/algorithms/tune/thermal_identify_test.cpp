@@ -43,13 +43,15 @@ TuneRecord plant_record(model::PlantParams p, double room_c, bool with_ambient =
   plant.set_tec_enabled(true);
   tune::IdentificationExperiment experiment;
   TuneRecord r;
-  double reading = test::ds18b20_steps_c(plant.casing_c());
+  // A network plant's DS18B20 reads through its own lag (Plant::sensor_c).
+  auto sensed_c = [&] { return p.network ? plant.sensor_c() : plant.casing_c(); };
+  double reading = test::ds18b20_steps_c(sensed_c());
   double command = 0.0;
   constexpr double kStepS = 0.25;
   double pending = reading;
   for (int q = 0;; ++q) {
     const double t = q * kStepS;
-    if (q % 4 == 0) pending = test::ds18b20_steps_c(plant.casing_c());  // a conversion starts
+    if (q % 4 == 0) pending = test::ds18b20_steps_c(sensed_c());  // a conversion starts
     if (q % 4 == 3) reading = pending;                      // ... and arrives 0.75 s later
     if (q % 8 == 0 && q > 0) {
       control::TecProgramInput in{t, reading, with_ambient ? test::ds18b20_steps_c(room_c) : std::nan(""), 55.0,
@@ -259,6 +261,50 @@ TEST_CASE("a stage whose own limit is below the experiment's commands has that l
   CHECK(limit.value == Approx(0.7).epsilon(0.02));
   CHECK(fit.rms_c < 1.5 * fit.quantisation_rms_c);
   CHECK(estimate(fit, "peltier_per_a_s").value == Approx(truth_peltier(p)).epsilon(0.05));
+}
+
+namespace {
+
+// A network plant (model/thermal_network.hpp): the TEC between a heat sink
+// and the casing, a heated board of 40 J/K on the casing alone through
+// 0.23 W/K (a side node: 1.3e-3/s per the casing's capacity, a 174 s time
+// constant), the die on the casing, the DS18B20 on the casing with a 25 s lag.
+model::PlantParams board_on_casing_plant() {
+  model::PlantParams p;
+  model::ThermalNetwork n;
+  n.nodes = {{"sink", 190.0, 0.0}, {"casing", 175.0, 0.0}, {"board", 40.0, 0.4}, {"die", 1.7, 0.0}};
+  n.links = {{model::kAmbientNode, 0, 0.55}, {0, 1, 0.03}, {1, 2, 0.23}, {1, 3, 0.08}};
+  n.tec_from = 0;
+  n.tec_to = 1;
+  n.casing_sensor = model::NetworkSensor{1, 25.0, 0.0, 0.0};
+  n.ambient_sensor = model::NetworkSensor{model::kAmbientNode, 0.0, 0.0, 0.0};
+  n.gyro_node = 3;
+  p.network = n;
+  return p;
+}
+
+}  // namespace
+
+TEST_CASE("a board on the casing that the sensor does not see is identified as a side node, and the fit reaches the floor") {
+  const ThermalFit fit = tune::identify_thermal(plant_record(board_on_casing_plant(), 16.0));
+  REQUIRE(fit.side_fitted);
+  const tune::Estimate coupling = estimate(fit, "side_per_s");
+  const tune::Estimate tau = estimate(fit, "side_tau_s");
+  INFO("side " << coupling.value << " +/- " << coupling.std_error << " /s, tau " << tau.value << " +/- "
+               << tau.std_error << " s, lag " << fit.model.sensor_lag_s << " s, rms " << fit.rms_c << " C");
+  // Per unit of the casing and the die's capacity (the die rides on the casing).
+  CHECK(coupling.value == Approx(0.23 / 176.7).epsilon(0.1));
+  CHECK(tau.value == Approx(40.0 / 0.23).epsilon(0.1));
+  CHECK(fit.model.sensor_lag_s == Approx(25.0).epsilon(0.1));
+  CHECK(fit.rms_c < 1.5 * fit.quantisation_rms_c);
+}
+
+TEST_CASE("a casing without a side part gets no side node") {
+  const ThermalFit& fit = nominal_fit();
+  CHECK_FALSE(fit.side_fitted);
+  CHECK(fit.model.side_per_s == 0.0);
+  CHECK(std::none_of(fit.estimates.begin(), fit.estimates.end(),
+                     [](const tune::Estimate& e) { return e.name == "side_per_s"; }));
 }
 
 TEST_CASE("a record without the ambient column still identifies the unit, the room as a constant") {

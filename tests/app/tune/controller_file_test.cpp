@@ -165,6 +165,30 @@ TEST_CASE("a model-based loop's controller file round-trips its model, noises an
   CHECK(s.current_scale_a == c.observer->spec.current_scale_a);
 }
 
+TEST_CASE("a model-based loop's side node and casing weight round-trip, a file without them has none, and one out of range is refused") {
+  ControllerFile c = gyrotc::test::observer_controller_file();
+  c.observer->model.side_per_s = 1.25e-3;
+  c.observer->model.side_tau_s = 180.0;
+  c.observer->spec.casing_weight = 0.3;
+  const std::string text = format_controller_file(c);
+  const ControllerFile back = parse_controller_file(text, "c.toml");
+  CHECK(back.observer->model.side_per_s == 1.25e-3);
+  CHECK(back.observer->model.side_tau_s == 180.0);
+  CHECK(back.observer->spec.casing_weight == 0.3);
+  // A file written before they existed.
+  std::string before = text;
+  for (const char* key : {"side_per_s = ", "side_tau_s = ", "casing_weight = "}) {
+    const auto at = before.find(key);
+    before.erase(at, before.find('\n', at) - at + 1);
+  }
+  CHECK(parse_controller_file(before, "c.toml").observer->model.side_per_s == 0.0);
+  CHECK(parse_controller_file(before, "c.toml").observer->spec.casing_weight == 0.0);
+  std::string negative = text;
+  negative.replace(negative.find("side_per_s = "), 13, "side_per_s = -");
+  CHECK(input_error_of([&] { (void)parse_controller_file(negative, "c.toml"); }).find("model.side_per_s") !=
+        std::string::npos);
+}
+
 TEST_CASE("applying a model-based loop's file designs a stable loop at its period within the board's limits") {
   ControllerConfig base;
   base.pid.out_min = -0.8;

@@ -72,6 +72,13 @@ struct ObserverLoopSpec {
   // current limit; livelier holds no closer on 1/16 C readings.
   double error_scale_c = 0.01;
   double current_scale_a = 0.02;
+  // The casing's (the TEC's second side's) deviation in the LQ cost, as a
+  // share of the held temperature's, where the loop holds another node: 0,
+  // the held node alone. An identified housing's held node is a lag that a
+  // record cannot place (a DS18B20's own package on the casing, or a node of
+  // its own): holding it alone overshoots the casing where the lag is the
+  // package's, holding the casing brakes a lag too early where it is a node.
+  double casing_weight = 0.0;
   double max_step_s = 0.1;          // the model's integration step
 
   bool operator==(const ObserverLoopSpec&) const = default;

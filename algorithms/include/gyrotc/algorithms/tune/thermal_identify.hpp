@@ -53,6 +53,14 @@ struct ThermalFit {
   // model: the fit without it stayed above the DS18B20's quantisation floor,
   // and the limit earned its place by the same criterion.
   bool stage_limit_fitted = false;
+  // A side node on the casing (ThermalModel::side_per_s, side_tau_s) is in
+  // the model: the fit without it stayed above the floor, and its two
+  // parameters earned their place by the same criterion.
+  bool side_fitted = false;
+  // The fit without the side node (model itself where none was fitted): the
+  // PID's design takes it (tune/controller_design.hpp; its gains were built
+  // and measured on that structure).
+  ThermalModel lumped_model;
   std::vector<Estimate> estimates;
 
   // Fit quality.

@@ -1,5 +1,6 @@
 #pragma once
 
+#include <limits>
 #include <span>
 
 // The thermal model `gyrotc tune` identifies from a unit's own record: the
@@ -22,6 +23,14 @@
 // I >= -rail_a - (S/R)(Tc - Ts), with S/R = a/(2b) (rails taken symmetric),
 // and by the OPA548's own current limit (its ILIM resistor), |I| <= stage_limit_a,
 // which can sit below the limit the board is configured for.
+//
+// A side node may hang on the casing alone (a board, a lid that takes heat
+// from it and gives it back later, and that the sensor does not see):
+//
+//   casing  ... - h (Tc - Tb)        side  dTb/dt = (Tc - Tb) / tau_b
+//
+// h = G_side/Cc, tau_b = C_side/G_side. It holds no heat of its own, so it
+// changes no steady state, only the casing's approach to one. h = 0: none.
 //
 // The DS18B20 sees the casing through a first-order lag and a dead time (the
 // conversion, the reading's age when a row or a PID period takes it, the
@@ -46,6 +55,8 @@ struct ThermalModel {
   double sensor_ambient_share = 0.0;   // q: the ambient's share in what the sensor's lag follows
   double rail_a = 1e3;                 // OPA548 swing / R: the current at Tc = Ts; large = never clips
   double stage_limit_a = 1e3;          // OPA548 ILIM, A; large = never clips
+  double side_per_s = 0.0;             // h = G_side / Cc, 1/s; 0 = no side node
+  double side_tau_s = 100.0;           // tau_b = C_side / G_side, s
 
   // Derived rates.
   double casing_shell_per_s() const noexcept;  // g
@@ -61,10 +72,13 @@ struct ThermalModel {
 struct ThermalState {
   double casing_c = 0.0;
   double shell_c = 0.0;
+  double side_c = kAtCasing;  // the side node; kAtCasing (NaN): at the casing's temperature
+  static constexpr double kAtCasing = std::numeric_limits<double>::quiet_NaN();
 };
 
 // The network with current_a applied (no clipping) at ambient_c, linear in
-// the state: d/dt (Tc, Ts) = A (Tc, Ts) + b.
+// the state: d/dt (Tc, Ts) = A (Tc, Ts) + b; without the side node, which
+// changes no steady state.
 struct ThermalMatrix {
   double a11, a12, a21, a22;
   double b1, b2;
