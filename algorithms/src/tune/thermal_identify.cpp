@@ -709,10 +709,13 @@ ThermalFit identify_thermal(const TuneRecord& record, double experiment_scale) {
   // the casing on the way up and gives it back, which the sensor does not
   // see). A fit still above the floor tries it: Levenberg-Marquardt from that
   // fit with the node set on a grid of couplings and time constants (the best
-  // three); it joins the model if its two parameters earn their place.
+  // three); it joins the model if its two parameters earn their place. Only
+  // with the ambient column: its one user, the model-based loop, needs that
+  // column, and without it the room and the casing's heat already trade off.
   bool side_fitted = false;
-  const ThermalModel lumped_model = model_of(expand(sf.theta));
-  if (sf.sse >= good_sse) {
+  const std::vector<double> lumped_theta = expand(sf.theta);  // before the side node's parameters join
+  const ThermalModel lumped_model = model_of(lumped_theta);
+  if (ambient_measured && sf.sse >= good_sse) {
     use_parameters(share_fitted, limit_fitted, true);
     struct SideStart {
       std::vector<double> theta;
@@ -721,7 +724,7 @@ ThermalFit identify_thermal(const TuneRecord& record, double experiment_scale) {
     std::vector<SideStart> side_starts;
     for (double coupling : {3e-4, 1e-3, 3e-3, 1e-2}) {
       for (double tau_s : {30.0, 100.0, 300.0, 1000.0}) {
-        std::vector<double> th = expand(sf.theta);
+        std::vector<double> th = lumped_theta;
         th[kLogSide] = std::log(coupling);
         th[kLogSideTau] = std::log(tau_s);
         th = reduce(th);

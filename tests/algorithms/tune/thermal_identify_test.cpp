@@ -299,6 +299,12 @@ TEST_CASE("a board on the casing that the sensor does not see is identified as a
   CHECK(fit.rms_c < 1.5 * fit.quantisation_rms_c);
 }
 
+TEST_CASE("a record without the ambient column gets no side node: the model-based loop, its one user, needs that column") {
+  const ThermalFit fit = tune::identify_thermal(plant_record(board_on_casing_plant(), 22.0, false));
+  CHECK_FALSE(fit.side_fitted);
+  CHECK(fit.model.side_per_s == 0.0);
+}
+
 TEST_CASE("a casing without a side part gets no side node") {
   const ThermalFit& fit = nominal_fit();
   CHECK_FALSE(fit.side_fitted);
