@@ -64,6 +64,24 @@ Eigen::MatrixXd hac_covariance(const Eigen::MatrixXd& jacobian, const Eigen::Vec
   return dof * inverse_normal * s * inverse_normal;
 }
 
+// A fit's residual as a vector, and its effective sample size (the rows are
+// correlated).
+std::vector<double> residual_of(const identify::SeparableFit& f) {
+  return {f.residual.data(), f.residual.data() + f.residual.size()};
+}
+double effective_samples_of(const identify::SeparableFit& f) {
+  return identify::effective_sample_size(static_cast<std::size_t>(f.residual.size()),
+                                         identify::lag1_autocorrelation(residual_of(f)));
+}
+
+// The long-run covariance of a fit's searched parameters (hac_covariance, its
+// window from the residual) at the model's Jacobian there.
+Eigen::MatrixXd long_run_covariance(const Eigen::MatrixXd& jacobian, const identify::SeparableFit& f) {
+  const std::vector<double> residual = residual_of(f);
+  return hac_covariance(jacobian, f.residual, f.covariance_unscaled,
+                        hac_bandwidth(residual, identify::lag1_autocorrelation(residual)));
+}
+
 // Record requirements (the experiment takes about 2 h).
 constexpr double kMinDurationS = 1800.0;
 constexpr double kMaxGapS = 30.0;
@@ -94,6 +112,13 @@ enum Index : std::size_t {
   kLogPeltier, kLogJoule, kLogLoss, kLogShellRatio, kLogShellTau, kRestRise, kDelay, kLagShare,
   kLogRail, kCasing0, kShell0, kAmbientShare, kLogLimit, kLogSide, kLogSideTau, kAmbient, kCount
 };
+// The screen for a current without effect: the Peltier term's t-ratio on a
+// long-run covariance of the searched parameters (log scale: value / se =
+// 1 / se(log); the Peltier term is always searched, first).
+double peltier_screen_t(const Eigen::MatrixXd& long_run) {
+  return 1.0 / std::max(std::sqrt(std::max(0.0, long_run(kLogPeltier, kLogPeltier))), 1e-300);
+}
+
 // No side node: a coupling whose exponential is 0.
 constexpr double kNoSide = -1000.0;
 
@@ -343,12 +368,26 @@ std::vector<double> first_guess(const TuneRecord& r, const std::vector<double>& 
   return th;
 }
 
-}  // namespace
+// The identification; on a record the current's screen refuses, and when
+// polarity_check, the same record with the current's sign reversed is tried
+// too: a TEC wired the wrong way round moves the casing against the command.
+ThermalFit identify_record(const TuneRecord& record, double experiment_scale, bool polarity_check);
 
-ThermalFit identify_thermal(const TuneRecord& record, double experiment_scale) {
-  if (!(experiment_scale > 0.0 && experiment_scale <= 1.0)) {
-    throw std::invalid_argument(text::printf_string("experiment scale %.3g: must be within (0, 1]", experiment_scale));
+// The fit of the record with the current reversed, if it is accepted and
+// follows the record at most half as far off as the fit as recorded.
+std::optional<ThermalFit> reversed_fit(const TuneRecord& record, double experiment_scale, double rms_as_recorded_c) {
+  TuneRecord reversed = record;
+  for (double& i : reversed.tec_a) i = -i;
+  try {
+    ThermalFit fit = identify_record(reversed, experiment_scale, false);
+    if (fit.rms_c < 0.5 * rms_as_recorded_c) return fit;
+  } catch (const std::invalid_argument&) {
+    // Not that either.
   }
+  return std::nullopt;
+}
+
+ThermalFit identify_record(const TuneRecord& record, double experiment_scale, bool polarity_check) {
   check_record(record, experiment_scale);
   const std::size_t n = record.time_s.size();
 
@@ -589,7 +628,7 @@ ThermalFit identify_thermal(const TuneRecord& record, double experiment_scale) {
       head.tec_a.assign(record.tec_a.begin(), record.tec_a.begin() + static_cast<std::ptrdiff_t>(k));
       head.ambient_c.assign(ambient.begin(), ambient.begin() + static_cast<std::ptrdiff_t>(k));
       try {
-        still_room_fit = identify_thermal(head, experiment_scale).theta;
+        still_room_fit = identify_record(head, experiment_scale, false).theta;
       } catch (const std::invalid_argument&) {
         // That part alone is not enough (e.g. no excitation yet): no such start.
       }
@@ -669,9 +708,7 @@ ThermalFit identify_thermal(const TuneRecord& record, double experiment_scale) {
     model.theta_grid = {reduce(from_without)};
     identify::SeparableFit refined = identify::fit_separable(y, model);
     if (refined.sse < with.sse) with = std::move(refined);
-    const std::vector<double> residual_with(with.residual.data(), with.residual.data() + n);
-    const double effective = identify::effective_sample_size(n, identify::lag1_autocorrelation(residual_with));
-    if (parameters_improve_fit(without.sse, with.sse, effective, 1)) return with;
+    if (parameters_improve_fit(without.sse, with.sse, effective_samples_of(with), 1)) return with;
     use_parameters(share_fitted, false);
     return std::nullopt;
   };
@@ -740,23 +777,19 @@ ThermalFit identify_thermal(const TuneRecord& record, double experiment_scale) {
       identify::SeparableFit f = identify::fit_separable(y, model);
       if (!with || f.sse < with->sse) with = std::move(f);
     }
-    const std::vector<double> residual_with(with->residual.data(), with->residual.data() + n);
-    const double rho = identify::lag1_autocorrelation(residual_with);
-    const double effective = identify::effective_sample_size(n, rho);
     // And only if the record pins the node down without losing the TEC: its
     // two parameters within a factor e (one standard error in the log) and
     // the Peltier term still screened (below), on the long-run covariance.
     auto pinned_down = [&] {
       const Eigen::MatrixXd cov =
-          hac_covariance(identify::model_jacobian(model, with->theta, with->beta, nullptr), with->residual,
-                         with->covariance_unscaled, hac_bandwidth(residual_with, rho));
+          long_run_covariance(identify::model_jacobian(model, with->theta, with->beta, nullptr), *with);
       auto sd_at = [&](std::size_t full_index) {
         const auto at = std::find(searched.begin(), searched.end(), full_index) - searched.begin();
         return std::sqrt(std::max(0.0, cov(at, at)));
       };
-      return sd_at(kLogSide) < 1.0 && sd_at(kLogSideTau) < 1.0 && 1.0 / sd_at(kLogPeltier) > kMinPeltierTRatio;
+      return sd_at(kLogSide) < 1.0 && sd_at(kLogSideTau) < 1.0 && peltier_screen_t(cov) > kMinPeltierTRatio;
     };
-    if (parameters_improve_fit(sf.sse, with->sse, effective, 2) && pinned_down()) {
+    if (parameters_improve_fit(sf.sse, with->sse, effective_samples_of(*with), 2) && pinned_down()) {
       sf = std::move(*with);
       side_fitted = true;
     } else {
@@ -805,10 +838,7 @@ ThermalFit identify_thermal(const TuneRecord& record, double experiment_scale) {
   // fit had taken into its curve and held it in 70-80 %.
   const Eigen::MatrixXd jacobian = identify::model_jacobian(model, sf.theta, sf.beta, nullptr);
   fit.noise = fit_residual_noise(jacobian, sf.residual, NoiseParts::two);
-  // The screen's standard error of log(Peltier term) (see hac_covariance).
-  const double peltier_screen_se = std::sqrt(std::max(
-      0.0, hac_covariance(jacobian, sf.residual, sf.covariance_unscaled, hac_bandwidth(residual, fit.lag1_autocorrelation))(
-               kLogPeltier, kLogPeltier)));
+  const double screen_t = peltier_screen_t(long_run_covariance(jacobian, sf));
   fit.covariance = Eigen::MatrixXd::Zero(kCount, kCount);
   {
     const Eigen::MatrixXd searched_covariance = noise_covariance(jacobian, sf.covariance_unscaled, fit.noise);
@@ -885,7 +915,15 @@ ThermalFit identify_thermal(const TuneRecord& record, double experiment_scale) {
   if (!ambient_measured) fit.estimates.push_back(plain_estimate("ambient_c", "C", kAmbient, 5.0));
 
   const Estimate& peltier = fit.estimates.front();
-  const double screen_t = 1.0 / std::max(peltier_screen_se, 1e-300);  // log scale: value / se = 1 / se(log)
+  if (!(screen_t > kMinPeltierTRatio) && polarity_check) {
+    if (const std::optional<ThermalFit> reversed = reversed_fit(record, experiment_scale, fit.rms_c)) {
+      throw std::invalid_argument(text::printf_string(
+          "the casing moves against the TEC current: with the current's sign reversed the record fits at "
+          "%.3f C rms (as recorded %.3f C): the TEC is wired the wrong way round (swap its leads at the "
+          "OPA548's output) and record again",
+          reversed->rms_c, fit.rms_c));
+    }
+  }
   if (!(screen_t > kMinPeltierTRatio) && fit.rms_c > 2.0 * fit.quantisation_rms_c) {
     // A fit far above the floor: the current's effect may be hidden by what
     // the model cannot follow rather than absent; say both.
@@ -904,6 +942,15 @@ ThermalFit identify_thermal(const TuneRecord& record, double experiment_scale) {
                             peltier.value, screen_t));
   }
   return fit;
+}
+
+}  // namespace
+
+ThermalFit identify_thermal(const TuneRecord& record, double experiment_scale) {
+  if (!(experiment_scale > 0.0 && experiment_scale <= 1.0)) {
+    throw std::invalid_argument(text::printf_string("experiment scale %.3g: must be within (0, 1]", experiment_scale));
+  }
+  return identify_record(record, experiment_scale, true);
 }
 
 double std_error_of(const ThermalFit& fit, const std::function<double(const ThermalModel&)>& f) {

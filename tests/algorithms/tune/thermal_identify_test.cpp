@@ -508,3 +508,11 @@ TEST_CASE("a record where the current has no effect on the casing is refused") {
   }
   CHECK(error_of(r).find("no measurable effect") != std::string::npos);
 }
+
+TEST_CASE("a record of a TEC wired the wrong way round is refused as such, not as a current without effect") {
+  model::PlantParams p = board_on_casing_plant();
+  std::swap(p.network->tec_from, p.network->tec_to);  // its hot side on the casing
+  const std::string why = error_of(plant_record(p, 16.0));
+  INFO(why);
+  CHECK(why.find("wired the wrong way round") != std::string::npos);
+}

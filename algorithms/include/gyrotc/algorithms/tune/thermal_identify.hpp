@@ -92,7 +92,9 @@ struct ThermalFit {
 // unequal columns, time not increasing (naming the row), a gap longer than
 // 30 s, a record shorter than 30 min (times experiment_scale), no excitation (the current hardly
 // changes), a flat record (the casing hardly moves), a saturated experiment
-// (the current sits at one limit), or a current without effect on the casing.
+// (the current sits at one limit), a current that moves the casing against its
+// sign (the record fits far better with the current reversed: a TEC wired the
+// wrong way round), or a current without effect on the casing.
 // experiment_scale: the record is an ExperimentPlan::scaled(experiment_scale)
 // experiment, and its shortest acceptable length scales with it.
 ThermalFit identify_thermal(const TuneRecord& record, double experiment_scale = 1.0);
