@@ -5,6 +5,8 @@
 #include <stdexcept>
 #include <string>
 
+#include "gyrotc/algorithms/text/printf_string.hpp"
+
 namespace gyrotc::tune {
 
 double ExperimentPlan::max_duration_s() const noexcept {
@@ -42,6 +44,7 @@ void validate(const ExperimentPlan& p) {
   require(non_negative(p.hold_kp_a_per_c), "hold_kp_a_per_c", "must be zero or positive");
   require(non_negative(p.hold_ki_a_per_c_s), "hold_ki_a_per_c_s", "must be zero or positive");
   require(positive(p.guard_c), "guard_c", "must be positive");
+  require(positive(p.wrong_way_c), "wrong_way_c", "must be positive");
   require(non_negative(p.coast_s), "coast_s", "must be zero or positive");
   require(non_negative(p.cool_s), "cool_s", "must be zero or positive");
   require(positive(p.reheat_timeout_s), "reheat_timeout_s", "must be positive");
@@ -56,9 +59,18 @@ const char* to_string(ExperimentPhase phase) noexcept {
     case ExperimentPhase::coast: return "coast";
     case ExperimentPhase::cool: return "cool";
     case ExperimentPhase::reheat: return "reheat";
+    case ExperimentPhase::wrong_way: return "wrong_way";
     case ExperimentPhase::done: return "done";
   }
   return "?";
+}
+
+std::string wrong_way_message(const ExperimentPlan& plan) {
+  return text::printf_string(
+      "the identification experiment stopped in its approach: full current towards the setpoint moved the casing "
+      "%.1f C away from it, so the TEC is wired the wrong way round (swap its leads at the OPA548's output) and the "
+      "TEC is off; nothing to tune from this record",
+      plan.wrong_way_c);
 }
 
 IdentificationExperiment::IdentificationExperiment(const ExperimentPlan& plan) : plan_(plan) { validate(plan_); }
@@ -132,9 +144,14 @@ control::TecProgramOutput IdentificationExperiment::decide(const control::TecPro
     case ExperimentPhase::rest:
       if (elapsed_s < plan_.rest_s) return {0.0, false};
       direction_ = in.casing_c <= in.setpoint_c ? 1.0 : -1.0;
+      approach_start_c_ = in.casing_c;
       enter(ExperimentPhase::approach, t);
       return decide(in);
     case ExperimentPhase::approach:
+      if ((in.casing_c - approach_start_c_) * direction_ <= -plan_.wrong_way_c) {
+        enter(ExperimentPhase::wrong_way, t);
+        return {0.0, true};
+      }
       if (!near && elapsed_s < plan_.approach_timeout_s) return {toward_a, false};
       enter(ExperimentPhase::relay, t);
       relay_high_ = (in.setpoint_c - in.casing_c) * direction_ > 0.0;
@@ -165,7 +182,8 @@ control::TecProgramOutput IdentificationExperiment::decide(const control::TecPro
       if (!near && elapsed_s < plan_.reheat_timeout_s) return {toward_a, false};
       enter(ExperimentPhase::done, t);
       return {0.0, true};
-    case ExperimentPhase::done: return {0.0, true};
+    case ExperimentPhase::done:
+    case ExperimentPhase::wrong_way: return {0.0, true};
   }
   return {0.0, true};
 }

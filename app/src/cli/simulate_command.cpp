@@ -466,7 +466,8 @@ void run(const SimulateOptions& o) {
                        {"ambient_step_c", o.ambient_step_c},
                        {"ambient_step_at_s", ambient_step_at_s(plan)},
                        {"duration_s", result.rows.empty() ? 0.0 : result.rows.back().time_s},
-                       {"finished", program.phase() == tune::ExperimentPhase::done}};
+                       {"finished", program.phase() == tune::ExperimentPhase::done},
+                       {"wrong_way", program.phase() == tune::ExperimentPhase::wrong_way}};
   }
   if (selfcal) {
     auto temp = [](double c) { return std::isnan(c) ? nlohmann::json(nullptr) : nlohmann::json(c); };
@@ -510,6 +511,9 @@ void run(const SimulateOptions& o) {
                   static_cast<unsigned long long>(rate_writer->written()),
                   static_cast<unsigned long long>(rate_writer->invalid()));
     }
+  }
+  if (tune_experiment && program.phase() == tune::ExperimentPhase::wrong_way) {
+    throw RuntimeFailure(tune::wrong_way_message(program.plan()));
   }
 }
 

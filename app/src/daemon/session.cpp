@@ -381,7 +381,9 @@ std::string run_session(const SessionOptions& options) {
 
   const LoopCounters c = runner.counters();
   const LatencyHistogram::Summary l = runner.latency();
+  const bool wrong_way = options.tune_experiment && experiment.phase() == tune::ExperimentPhase::wrong_way;
   const char* stopped_by = stop_signal != 0 ? (stop_signal == SIGINT ? "SIGINT" : "SIGTERM")
+                           : wrong_way       ? "experiment stopped (TEC wired the wrong way round)"
                            : controller.program_finished() ? "experiment finished"
                                                            : "duration reached";
   GYROTC_LOG_NOTICE("%s after %.1f s: TEC at 0 A, OPA548 disabled (safe-off)", stopped_by, elapsed_s);
@@ -443,6 +445,9 @@ std::string run_session(const SessionOptions& options) {
     std::ofstream out(options.summary_json);
     out << j.dump(2) << '\n';
     if (!out) throw RuntimeFailure("cannot write the summary to '" + options.summary_json + "'");
+  }
+  if (wrong_way) {
+    throw RuntimeFailure(tune::wrong_way_message(experiment.plan()));
   }
   return stopped_by;
 }

@@ -138,6 +138,19 @@ TEST_CASE("an unreachable setpoint times the approach out instead of heating for
   CHECK(steps.back().time_s <= e.plan().max_duration_s());
 }
 
+TEST_CASE("a TEC wired the wrong way round ends the experiment in its approach once the casing has moved 2 C away") {
+  for (const double room_c : {16.0, 70.0}) {  // heating towards the setpoint, and cooling
+    INFO("room " << room_c << " C");
+    IdentificationExperiment e;
+    const std::vector<Step> steps = run(e, room_c, -1.0, 1.0, -0.05);  // the current moves the casing the other way
+    REQUIRE_FALSE(steps.empty());
+    CHECK(e.phase() == ExperimentPhase::wrong_way);
+    CHECK(steps.back().phase == ExperimentPhase::approach);
+    CHECK(std::fabs(steps.back().casing_c - room_c) == Approx(2.0).margin(0.2));
+    CHECK(steps.back().time_s < 120.0);
+  }
+}
+
 TEST_CASE("an experiment plan that cannot work is rejected naming the field") {
   tune::ExperimentPlan plan;
   plan.relay_fraction = 1.5;

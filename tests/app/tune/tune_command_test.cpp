@@ -15,6 +15,7 @@
 
 #include "gyrotc/app/cli/commands.hpp"
 #include "gyrotc/app/formats/controller_file.hpp"
+#include "gyrotc/app/formats/plant_file.hpp"
 #include "gyrotc/app/support/errors.hpp"
 #include "gyrotc/app/runtime/lockstep_runner.hpp"
 #include "gyrotc/app/workflows/tuning.hpp"
@@ -246,6 +247,37 @@ TEST_CASE("a record with a cell that is not a number is refused naming its line"
   });
   const std::string why = input_error_of([&] { run_command(app::add_tune_command, "tune", {"--data", path, "--out", kDir + "/x.toml"}); });
   CHECK(why.find("bad_cell.csv:43: column 'sensor_c'") != std::string::npos);
+}
+
+TEST_CASE("simulate --profile tune on a TEC wired the wrong way round stops in the approach, keeps the record and fails saying why") {
+  model::PlantParams plant;
+  model::ThermalNetwork n;
+  n.nodes = {{"sink", 190.0, 0.0}, {"casing", 175.0, 0.3}};
+  n.links = {{model::kAmbientNode, 0, 0.55}, {0, 1, 0.03}};
+  n.tec_from = 1;  // the TEC's hot side on the casing
+  n.tec_to = 0;
+  n.casing_sensor = model::NetworkSensor{1, 5.0, 0.0, 0.0};
+  n.ambient_sensor = model::NetworkSensor{model::kAmbientNode, 0.0, 0.0, 0.0};
+  n.gyro_node = 1;
+  plant.network = n;
+  std::filesystem::create_directories(kDir);
+  const std::string plant_path = kDir + "/reversed_plant.toml";
+  app::save_plant(plant, plant_path);
+  const std::string out = kDir + "/reversed";
+  std::string why;
+  try {
+    run_command(app::add_simulate_command, "simulate",
+                {"--profile", "tune", "--plant", plant_path, "--sample-rate-hz", "20", "--out", out, "--json"});
+  } catch (const app::RuntimeFailure& e) {
+    why = e.what();
+  }
+  CHECK(why.find("wired the wrong way round") != std::string::npos);
+  const std::string summary = read_text(out + "/summary.json");
+  REQUIRE_FALSE(summary.empty());
+  const nlohmann::json j = nlohmann::json::parse(summary);
+  CHECK(j.at("experiment").at("wrong_way").get<bool>());
+  CHECK(j.at("experiment").at("duration_s").get<double>() < 600.0);
+  CHECK(std::filesystem::exists(out + "/record.csv"));
 }
 
 TEST_CASE("simulate --controller refuses what is neither a preset nor a controller file") {

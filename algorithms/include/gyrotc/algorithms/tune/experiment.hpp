@@ -1,6 +1,7 @@
 #pragma once
 
 #include <cstdint>
+#include <string>
 
 #include "gyrotc/algorithms/control/tec_program.hpp"
 
@@ -29,7 +30,9 @@
 // Every phase with a target has a timeout, so the whole programme is bounded
 // by max_duration_s() (<= 3 h with the defaults: 2 h 35 min). If the casing
 // leaves the setpoint by more than guard_c during relay or prbs, full current
-// pushes it back first.
+// pushes it back first. If full current towards the setpoint moves the casing
+// wrong_way_c away from it during the approach (a TEC wired the wrong way
+// round), the programme ends there, the TEC off, in the phase wrong_way.
 namespace gyrotc::tune {
 
 struct ExperimentPlan {
@@ -45,6 +48,7 @@ struct ExperimentPlan {
   double hold_kp_a_per_c = 0.2;       // the prbs phase's gentle hold
   double hold_ki_a_per_c_s = 5e-4;
   double guard_c = 2.0;
+  double wrong_way_c = 2.0;  // beyond a sensor's lag behind a casing still drifting at the start
   double coast_s = 1200.0;
   double cool_s = 300.0;
   double reheat_timeout_s = 1500.0;
@@ -64,8 +68,11 @@ struct ExperimentPlan {
 // Throws std::invalid_argument naming the field.
 void validate(const ExperimentPlan& plan);
 
-enum class ExperimentPhase : std::uint8_t { rest, approach, relay, prbs, coast, cool, reheat, done };
+enum class ExperimentPhase : std::uint8_t { rest, approach, relay, prbs, coast, cool, reheat, done, wrong_way };
 const char* to_string(ExperimentPhase phase) noexcept;
+
+// What an experiment that ended in wrong_way tells its user, in one line.
+std::string wrong_way_message(const ExperimentPlan& plan);
 
 class IdentificationExperiment final : public control::TecProgram {
  public:
@@ -88,6 +95,7 @@ class IdentificationExperiment final : public control::TecProgram {
   double last_time_s_ = 0.0;
   double last_command_a_ = 0.0;
   double direction_ = 1.0;  // +1: the setpoint is above the starting casing temperature
+  double approach_start_c_ = 0.0;
   // relay
   bool relay_high_ = true;
   double bias_a_ = 0.0;
