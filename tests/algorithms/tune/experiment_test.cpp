@@ -95,6 +95,7 @@ TEST_CASE("each phase drives the current its purpose needs") {
       case ExperimentPhase::cool: CHECK(s.current_a == -1.0); break;
       case ExperimentPhase::reheat: CHECK(s.current_a == 1.0); break;
       case ExperimentPhase::done: break;
+      case ExperimentPhase::wrong_way: FAIL("a correctly wired TEC's approach ended as wired the wrong way round"); break;
     }
   }
   // The relay switches between bias +/- half the range (the bias moves at
