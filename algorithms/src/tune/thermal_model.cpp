@@ -123,7 +123,7 @@ ThermalState step(const ThermalModel& m, const ThermalState& x, double command_a
 ThermalState steady_state(const ThermalModel& m, double i, double ambient_c) noexcept {
   const ThermalMatrix k = thermal_matrix(m, i, ambient_c);
   const double det = k.a11 * k.a22 - k.a12 * k.a21;
-  // A x = -b; the side node, holding no heat, at the casing's temperature.
+  // A x = -b; the side node, without a heat source, at the casing's temperature.
   const double casing_c = (-k.b1 * k.a22 + k.a12 * k.b2) / det;
   return {casing_c, (-k.a11 * k.b2 + k.a21 * k.b1) / det, casing_c};
 }

@@ -54,8 +54,10 @@ struct ThermalFit {
   // and the limit earned its place by the same criterion.
   bool stage_limit_fitted = false;
   // A side node on the casing (ThermalModel::side_per_s, side_tau_s) is in
-  // the model: the fit without it stayed above the floor, and its two
-  // parameters earned their place by the same criterion.
+  // the model: the record has the ambient column, the fit without the node
+  // stayed above the floor, its two parameters earned their place by the
+  // same criterion, and the record pins both down (within a factor e) with
+  // the Peltier term still screened.
   bool side_fitted = false;
   // The fit without the side node (model itself where none was fitted): the
   // PID's design takes it (tune/controller_design.hpp; its gains were built

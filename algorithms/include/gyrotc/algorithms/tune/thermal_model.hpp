@@ -29,7 +29,7 @@
 //
 //   casing  ... - h (Tc - Tb)        side  dTb/dt = (Tc - Tb) / tau_b
 //
-// h = G_side/Cc, tau_b = C_side/G_side. It holds no heat of its own, so it
+// h = G_side/Cc, tau_b = C_side/G_side. It has no heat source of its own, so it
 // changes no steady state, only the casing's approach to one. h = 0: none.
 //
 // The DS18B20 sees the casing through a first-order lag and a dead time (the
