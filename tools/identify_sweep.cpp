@@ -367,6 +367,33 @@ std::vector<Scenario> family_c() {
     s.warm_up_tau_s = 700.0;
     out.push_back(series_c("warm_up 9 mV 700 s, -40..80 C staircase", "warm_up", s));
   }
+  // Issue 74: one library effect on a programme whose shape a probe can
+  // follow (a level change at each turn of a triangle or step of a
+  // staircase), the effect's regressor switching with the chamber.
+  {
+    indep::IndependentSpec s = indep::hysteresis_on_a_triangle(0);
+    out.push_back(series_c("ramp_hysteresis 2 mV, -30..70 C triangle at 0.5 C/min", "ramp_hysteresis", s));
+    s.hysteresis_mv = 0.0;
+    s.warm_up_mv = 1.5;
+    out.push_back(series_c("warm_up 1.5 mV 900 s, -30..70 C triangle at 0.5 C/min", "warm_up", s));
+  }
+  {
+    // Up and down in 20 C steps at 1 C/min, 1 h holds (10.7 h).
+    indep::IndependentSpec s;
+    s.programme = {{0.0, -20.0}};
+    for (double level : {0.0, 20.0, 40.0, 60.0, 40.0, 20.0, 0.0, -20.0}) {
+      const double t = s.programme.back().first + 3600.0;
+      s.programme.push_back({t, s.programme.back().second});
+      s.programme.push_back({t + 1200.0, level});
+    }
+    s.programme.push_back({s.programme.back().first + 3600.0, -20.0});
+    s.duration_s = s.programme.back().first;
+    s.hysteresis_mv = 1.0;
+    out.push_back(series_c("ramp_hysteresis 1 mV, -20..60..-20 C staircase", "ramp_hysteresis", s));
+    s.hysteresis_mv = 0.0;
+    s.lag_tau_s = 300.0;
+    out.push_back(series_c("thermal_lag 300 s, -20..60..-20 C staircase", "thermal_lag", s));
+  }
   // Gaps: right or refused.
   {
     indep::IndependentSpec s;
@@ -456,6 +483,7 @@ std::string explain(const Identification& id) {
       out += "\n";
     }
   }
+  for (const auto& w : id.noise_warnings) out += "  warning: " + w + "\n";
   for (const auto& a : id.added) {
     out += "  added " + a.effect + ":";
     for (const auto& p : a.params) {

@@ -24,6 +24,9 @@ constexpr double kMinRampR0 = 1e-3;  // C/s
 // that are fitted (they hold samples and are not settling after a gap).
 struct Bins {
   Eigen::VectorXd time_s, temp_c, rate_c_per_s, y, ambient_c, tec_a, tec_a2, count;
+  // dT/dt over SeriesOptions::hysteresis_rate_s: the argument of the ramp
+  // hysteresis' tanh.
+  Eigen::VectorXd hysteresis_rate_c_per_s;
   double step_s = 1.0;  // bin width
   std::vector<Eigen::Index> rows;
   int gaps = 0;
@@ -101,16 +104,24 @@ Bins make_bins(const SeriesRecord& r, const std::vector<double>& y, const Series
   const double span = r.time_s.back() - t0;
   const std::vector<std::size_t> starts = segment_starts(r.time_s, o.gap_s);
   const Window smooth = centred_mean(r.time_s, r.sensor_c, starts, 0.5 * o.smooth_s);
-  std::vector<double> rate(n, 0.0);
-  for (std::size_t i = 0; i < n; ++i) {
-    const std::size_t lo = smooth.lo[i];
-    const std::size_t hi = smooth.hi[i];
-    if (hi > lo) rate[i] = (smooth.mean[hi] - smooth.mean[lo]) / (r.time_s[hi] - r.time_s[lo]);
-  }
+  // The centred difference of the window's means, across the window.
+  const auto rate_over = [&](const Window& w) {
+    std::vector<double> rate(n, 0.0);
+    for (std::size_t i = 0; i < n; ++i) {
+      const std::size_t lo = w.lo[i];
+      const std::size_t hi = w.hi[i];
+      if (hi > lo) rate[i] = (w.mean[hi] - w.mean[lo]) / (r.time_s[hi] - r.time_s[lo]);
+    }
+    return rate;
+  };
+  const std::vector<double> rate = rate_over(smooth);
+  const std::vector<double> hysteresis_rate =
+      rate_over(centred_mean(r.time_s, r.sensor_c, starts, 0.5 * o.hysteresis_rate_s));
   Bins b;
   b.step_s = std::max(median_step(r.time_s), span / static_cast<double>(o.max_bins));
   const auto count = static_cast<Eigen::Index>(std::floor(span / b.step_s)) + 1;
-  for (auto* v : {&b.time_s, &b.temp_c, &b.rate_c_per_s, &b.y, &b.ambient_c, &b.tec_a, &b.tec_a2, &b.count}) {
+  for (auto* v : {&b.time_s, &b.temp_c, &b.rate_c_per_s, &b.hysteresis_rate_c_per_s, &b.y, &b.ambient_c, &b.tec_a,
+                  &b.tec_a2, &b.count}) {
     *v = Eigen::VectorXd::Zero(count);
   }
   const bool has_tec = !r.tec_a.empty();
@@ -120,6 +131,7 @@ Bins make_bins(const SeriesRecord& r, const std::vector<double>& y, const Series
     b.time_s(e) += r.time_s[i] - t0;
     b.temp_c(e) += smooth.mean[i];
     b.rate_c_per_s(e) += rate[i];
+    b.hysteresis_rate_c_per_s(e) += hysteresis_rate[i];
     b.y(e) += y[i];
     b.ambient_c(e) += r.ambient_c[i];
     if (has_tec) {
@@ -133,14 +145,17 @@ Bins make_bins(const SeriesRecord& r, const std::vector<double>& y, const Series
       b.time_s(e) = (static_cast<double>(e) + 0.5) * b.step_s;
       continue;
     }
-    for (auto* v : {&b.time_s, &b.temp_c, &b.rate_c_per_s, &b.y, &b.ambient_c, &b.tec_a, &b.tec_a2}) {
+    for (auto* v : {&b.time_s, &b.temp_c, &b.rate_c_per_s, &b.hysteresis_rate_c_per_s, &b.y, &b.ambient_c, &b.tec_a,
+                    &b.tec_a2}) {
       (*v)(e) /= m;
     }
   }
   for (auto* v : {&b.temp_c, &b.ambient_c, &b.tec_a, &b.tec_a2}) interpolate_empty(*v, b.count);
   // Across a gap the temperature is interpolated: its slope is the rate.
   for (Eigen::Index e = 1; e + 1 < count; ++e) {
-    if (b.count(e) == 0.0) b.rate_c_per_s(e) = (b.temp_c(e + 1) - b.temp_c(e - 1)) / (2.0 * b.step_s);
+    if (b.count(e) > 0.0) continue;
+    b.rate_c_per_s(e) = (b.temp_c(e + 1) - b.temp_c(e - 1)) / (2.0 * b.step_s);
+    b.hysteresis_rate_c_per_s(e) = b.rate_c_per_s(e);
   }
   // Fitted bins: with samples, and not within settle_s after a gap.
   std::vector<double> settle_until;
@@ -171,7 +186,9 @@ Eigen::VectorXd gather(const Eigen::VectorXd& v, const std::vector<Eigen::Index>
 Bins fitted_view(const Bins& grid) {
   Bins f;
   for (auto [to, from] : {std::pair{&f.time_s, &grid.time_s}, {&f.temp_c, &grid.temp_c},
-                          {&f.rate_c_per_s, &grid.rate_c_per_s}, {&f.y, &grid.y}, {&f.ambient_c, &grid.ambient_c},
+                          {&f.rate_c_per_s, &grid.rate_c_per_s},
+                          {&f.hysteresis_rate_c_per_s, &grid.hysteresis_rate_c_per_s}, {&f.y, &grid.y},
+                          {&f.ambient_c, &grid.ambient_c},
                           {&f.tec_a, &grid.tec_a}, {&f.tec_a2, &grid.tec_a2}, {&f.count, &grid.count}}) {
     *to = gather(*from, grid.rows);
   }
@@ -356,7 +373,7 @@ SeparableModel gyro_model(const GyroSetup& s, const std::vector<std::string>& ef
       } else if (e == "rate_sensitivity") {
         design.col(c) = rate;
       } else if (e == "ramp_hysteresis") {
-        design.col(c) = (rate.array() / p).tanh();
+        design.col(c) = (gather(b.hysteresis_rate_c_per_s, b.rows).array() / p).tanh();
       } else if (e == "ambient_sensitivity") {
         design.col(c) = gather(b.ambient_c, b.rows).array() - model::kAmbientReferenceC;
       } else if (e == "warm_up") {
@@ -773,6 +790,8 @@ Identification identify_series(const SeriesRecord& record, SeriesTarget target,
   if (gyro && options.base_die_tau_s > 0.0) {
     const Eigen::VectorXd die = first_order_lag(grid.temp_c, grid.step_s, options.base_die_tau_s);
     grid.rate_c_per_s = (grid.temp_c - die) / options.base_die_tau_s;
+    // The die's dT/dt is the casing's through the same lag.
+    grid.hysteresis_rate_c_per_s = first_order_lag(grid.hysteresis_rate_c_per_s, grid.step_s, options.base_die_tau_s);
     grid.temp_c = die;
   }
   if (grid.rows.size() < kMinFittedBins) {
@@ -944,6 +963,23 @@ Identification identify_series(const SeriesRecord& record, SeriesTarget target,
   id.verdict = sel.verdict;
   id.statement = verdict_statement(sel);
   id.unexplained = sel.unexplained;
+  if (target == SeriesTarget::gyro_mv) {
+    // Bounds of the wander's correlation time (wander_noise.hpp searches
+    // within them); at the upper one the wander is as slow as the record
+    // lets it be, and what it holds may be structure the model lacks.
+    const auto at_bound = [&](const WanderNoise& w, const char* model) {
+      char line[240];
+      if (w.wander_var > 0.0 && w.tau_s >= 0.99 * problem.wander_tau_max_s) {
+        std::snprintf(line, sizeof line,
+                      "the %s model's bias wander sits at the bound of its correlation time (%.3g mV over %.0f s, a "
+                      "quarter of the record): it may hold structure the model lacks",
+                      model, std::sqrt(w.wander_var), w.tau_s);
+        id.noise_warnings.emplace_back(line);
+      }
+    };
+    at_bound(sel.baseline_noise, "baseline");
+    at_bound(sel.final_noise, "final");
+  }
   id.final_rms = std::sqrt(r1.squaredNorm() / static_cast<double>(n));
   id.final_max_abs = r1.cwiseAbs().maxCoeff();
   id.whiteness_p_after = ljung_box_p({r1.data(), n}, kLags);

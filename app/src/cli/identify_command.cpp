@@ -157,6 +157,7 @@ nlohmann::json to_json(const id::Identification& r, double elapsed_s) {
   j["verdict"] = r.verdict;
   j["statement"] = r.statement;
   j["unexplained"] = r.unexplained;
+  j["noise_warnings"] = r.noise_warnings;
   if (!r.note.empty()) j["note"] = r.note;
   j["final"] = {{"rms", r.final_rms}, {"max_abs", r.final_max_abs}, {"whiteness_p", r.whiteness_p_after}};
   j["shrink"] = r.shrink;
@@ -190,6 +191,7 @@ std::string summary(const id::Identification& r, double elapsed_s) {
     std::snprintf(line, sizeof line, "  (delta BIC %.1f, rms after %.4g)\n", a.delta_bic, a.rms_after);
     s << line;
   }
+  for (const auto& w : r.noise_warnings) s << "warning: " << w << "\n";
   if (!r.note.empty()) s << "note: " << r.note << "\n";
   s << "verdict: " << r.verdict << " (" << r.statement << ")\n";
   std::snprintf(line, sizeof line, "final rms %.4g %s (max %.4g), whiteness p %.3g, shrink %.2fx, %.2f s\n",
@@ -303,6 +305,7 @@ void write_report(const id::Identification& r, const IdentifyOptions& o, double 
     }
     md << "\n\n";
   }
+  for (const auto& w : r.noise_warnings) md << "Warning: " << w << ".\n\n";
   if (!r.note.empty()) md << "Note: " << r.note << "\n\n";
   md << "## Every candidate tried\n\nRound 0: the generic probes, tried after the library; one that passes means "
         "structure remains that no library effect explains.\n\n| round | effect | p-value | delta BIC | CV gain | "

@@ -164,6 +164,25 @@ TEST_CASE("a ramp hysteresis that an ambient sensitivity partly stands in for is
   CHECK(id.verdict == "ramp_hysteresis");
 }
 
+TEST_CASE("a 2 mV ramp hysteresis on a temperature triangle is named and the gap shrinks") {
+  // Issue 74. With dT/dt over 60 s the reading's 0.0625 C steps made the
+  // hysteresis' regressor flicker on every approach to a hold; the baseline's
+  // wander went to its bound (1.1 mV over 11250 s) and the record was
+  // answered ambiguous:ambient_sensitivity+rate_sensitivity.
+  using gyrotc::identify_test::hysteresis_on_a_triangle;
+  const auto id = identify_series(make_independent_record(hysteresis_on_a_triangle(3)), SeriesTarget::gyro_mv,
+                                  SeriesOptions{});
+  INFO(id.statement);
+  CHECK(id.verdict == "ramp_hysteresis");
+  REQUIRE(id.added.size() == 1);
+  CHECK(id.added[0].params[0].value == Approx(2.0).epsilon(0.15));
+  CHECK(id.shrink > 4.0);
+  // Without the hysteresis the wander is as slow as the record allows, and
+  // the report says so; with it, the wander is the record's own.
+  REQUIRE(id.noise_warnings.size() == 1);
+  CHECK(id.noise_warnings[0].find("baseline model's bias wander sits at the bound") != std::string::npos);
+}
+
 // Issue 22: across a gap the record cannot tell a drift from the wander's
 // level change. This null record (300 s wander, one hour missing) was
 // answered linear_drift at p = 3e-7 when the drift was tried across the gap.

@@ -195,3 +195,32 @@ TEST_CASE("identify --out-plant writes a plant description with the effect found
   fs::remove(csv);
   fs::remove(plant);
 }
+
+TEST_CASE("identify names a 2 mV ramp hysteresis that simulate hid on a temperature triangle, and warns of the baseline's wander") {
+  // Issue 74, as a user meets it: simulate with the effect switched on, then
+  // identify against the default plant. The die follows the casing through
+  // the plant's 40 s lag; the hysteresis' dT/dt must follow it there too
+  // (answered ambient_sensitivity when it was the die's 60 s-smoothed rate).
+  const fs::path dir = temp_path("triangle");
+  fs::create_directories(dir);
+  {
+    std::ofstream profile(dir / "triangle.csv");
+    profile << "time_s,ambient_c\n0,20\n1800,20\n7800,-30\n9600,-30\n21600,70\n23400,70\n35400,-30\n37200,-30\n"
+               "43200,20\n45000,20\n";
+    std::ofstream hidden(dir / "hidden.toml");
+    hidden << "[effects.ramp_hysteresis]\nh_mv = 2\nr0_c_per_s = 0.003\n";
+    std::ofstream base(dir / "base.toml");
+  }
+  (void)gyrotc::test::run_command(gyrotc::app::add_simulate_command, "simulate",
+                                  {"--profile", (dir / "triangle.csv").string(), "--controller", "off", "--plant",
+                                   (dir / "hidden.toml").string(), "--out", (dir / "meas").string()});
+  const auto j = nlohmann::json::parse(run_identify({"--data", (dir / "meas" / "simulation.csv").string(), "--plant",
+                                                     (dir / "base.toml").string(), "--json"}));
+  CHECK(j["verdict"] == "ramp_hysteresis");
+  REQUIRE(j["added"].size() == 1);
+  CHECK(j["added"][0]["params"]["h_mv"].get<double>() == Approx(2.0).epsilon(0.1));
+  CHECK(j["shrink"].get<double>() > 5.0);
+  REQUIRE(j["noise_warnings"].size() == 1);
+  CHECK(j["noise_warnings"][0].get<std::string>().find("baseline model's bias wander") != std::string::npos);
+  fs::remove_all(dir);
+}

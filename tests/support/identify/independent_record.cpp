@@ -132,17 +132,33 @@ identify::SeriesRecord make_independent_record(const IndependentSpec& s) {
   return r;
 }
 
-IndependentSpec lag_and_warm_up_on_a_triangle(std::uint64_t seed) {
+namespace {
+
+// 20 C, then -30 -> 70 -> -30 -> 20 C at 0.5 C/min with 30 min holds, 12.5 h.
+IndependentSpec on_a_triangle(std::uint64_t seed) {
   IndependentSpec s;
   s.programme = {{0.0, 20.0},      {1800.0, 20.0},  {7800.0, -30.0},  {9600.0, -30.0}, {21600.0, 70.0},
                  {23400.0, 70.0}, {35400.0, -30.0}, {37200.0, -30.0}, {43200.0, 20.0}};
   s.duration_s = 45000.0;
+  s.seed = seed;
+  return s;
+}
+
+}  // namespace
+
+IndependentSpec hysteresis_on_a_triangle(std::uint64_t seed) {
+  IndependentSpec s = on_a_triangle(seed);
+  s.hysteresis_mv = 2.0;
+  return s;
+}
+
+IndependentSpec lag_and_warm_up_on_a_triangle(std::uint64_t seed) {
+  IndependentSpec s = on_a_triangle(seed);
   s.wander_mv = 0.4;
   s.wander_tau_s = 200.0;
   s.lag_tau_s = 250.0;
   s.warm_up_mv = 8.0;
   s.warm_up_tau_s = 600.0;
-  s.seed = seed;
   return s;
 }
 

@@ -79,4 +79,9 @@ identify::SeriesRecord make_independent_record(const IndependentSpec& spec);
 // holds, 12.5 h), under 0.4 mV of wander with 200 s correlation.
 IndependentSpec lag_and_warm_up_on_a_triangle(std::uint64_t seed);
 
+// Issue 74's record: a 2 mV ramp hysteresis (r0 0.003 C/s) on the same
+// -30 -> 70 -> -30 C triangle, one ramp rate (0.5 C/min) and 30 min holds,
+// under the default wander (0.15 mV, 300 s).
+IndependentSpec hysteresis_on_a_triangle(std::uint64_t seed);
+
 }  // namespace gyrotc::identify_test

@@ -127,6 +127,9 @@ struct Identification {
   // explains the residual (...)".
   std::string statement;
   std::vector<std::string> unexplained;  // the probes that passed
+  // Series: a noise parameter at the bound of its search, in words (the
+  // baseline's wander at the record's quarter has taken structure).
+  std::vector<std::string> noise_warnings;
   std::string note;     // why candidates were not tried (empty when all were)
 
   double final_rms = 0.0;

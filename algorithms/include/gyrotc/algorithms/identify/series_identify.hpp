@@ -43,6 +43,16 @@ struct SeriesRecord {
 
 struct SeriesOptions {
   double smooth_s = 60.0;
+  // The dT/dt a ramp hysteresis follows: the difference of two means over
+  // this window, this far apart (the other effects' dT/dt: over smooth_s).
+  // Longer, because the hysteresis is a steep function of the rate: on a
+  // casing approaching a hold the reading steps by 0.0625 C once in minutes,
+  // and over 60 s its slope flickered between 0 and a step per window
+  // (0.001 C/s, a third of the tanh's scale), which the tanh turned into
+  // structure an ambient sensitivity or the wander took: a 2 mV hysteresis
+  // on a -30..70 C triangle at 0.5 C/min was answered ambient_sensitivity or
+  // a tie on 12 of 12 seeds (docs/IDENTIFY.md, run 10).
+  double hysteresis_rate_s = 120.0;
   std::size_t max_bins = 3000;
   int folds = 5;
   double cv_block_s = 300.0;
