@@ -19,7 +19,7 @@
 // only on records without gaps, across which it cannot be told from the
 // bias wander; the note says so). T is the
 // sensor reading smoothed over `smooth_s` (centred, no lag) and dT/dt its
-// centred difference.
+// centred difference (a ramp hysteresis' over `hysteresis_rate_s`).
 //
 // sensor_c baseline: one-node RC casing, T = a*L[ambient] + g*L[tec_a] +
 // c + e*exp(-t/tau) with L the unit-gain first-order lag of time constant
