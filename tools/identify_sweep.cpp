@@ -12,8 +12,8 @@
 //     (tests/support/identify/independent_record.cpp: its own bias curve, 2 s
 //     sampling, a two-node casing, white noise plus Gauss-Markov bias wander
 //     of correlation time 30..1000 s): nulls, effects, records with gaps (right
-//     or refused), records the method must refuse, an effect outside the
-//     library.
+//     or refused), records the method must refuse, effects outside the
+//     library, a lag and a rate sensitivity on a narrow range (near-collinear).
 // The decision thresholds are chosen on training seeds (1, 7920, ...) of A and
 // B among a few settings, then every family is reported on test seeds
 // (100001, ...) that played no part in choosing them; family C is never used
@@ -38,6 +38,7 @@
 #include <vector>
 
 #include "gyrotc/algorithms/identify/record_generator.hpp"
+#include "gyrotc/algorithms/identify/separating_experiment.hpp"
 #include "gyrotc/algorithms/identify/series_identify.hpp"
 #include "gyrotc/algorithms/identify/static_identify.hpp"
 #include "identify/independent_record.hpp"
@@ -394,6 +395,19 @@ std::vector<Scenario> family_c() {
     s.lag_tau_s = 300.0;
     out.push_back(series_c("thermal_lag 300 s, -20..60..-20 C staircase", "thermal_lag", s));
   }
+  // Issue 74's near-collinear pair: on 30..42 C a 200 s lag and a rate
+  // sensitivity predict nearly the same output; the truth, or an ambiguity
+  // that names it, is right.
+  {
+    indep::IndependentSpec s = indep::narrow_range(0);
+    s.lag_tau_s = 200.0;
+    out.push_back(series_c("narrow 30..42 C: thermal_lag 200 s", "thermal_lag", s));
+    out.back().near_collinear = true;
+    s.lag_tau_s = 0.0;
+    s.rate_mv_per_c_per_s = 60.0;
+    out.push_back(series_c("narrow 30..42 C: rate_sensitivity 60 mV per C/s", "rate_sensitivity", s));
+    out.back().near_collinear = true;
+  }
   // Gaps: right or refused.
   {
     indep::IndependentSpec s;
@@ -484,6 +498,7 @@ std::string explain(const Identification& id) {
     }
   }
   for (const auto& w : id.noise_warnings) out += "  warning: " + w + "\n";
+  for (const auto& a : id.alternatives) out += "  alternative: " + alternative_line(a) + "\n";
   for (const auto& a : id.added) {
     out += "  added " + a.effect + ":";
     for (const auto& p : a.params) {

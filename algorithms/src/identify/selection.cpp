@@ -714,8 +714,8 @@ SelectionResult select_effects(const SelectionProblem& problem, const Criteria& 
       for (const auto& a : best.adds) {
         for (const auto& b : other.adds) grouped = grouped || in_group(problem, a, b);
       }
-      const bool collinear =
-          std::fabs(correlation(best.added_signal, other.added_signal)) > criteria.max_signal_correlation;
+      const double r = correlation(best.added_signal, other.added_signal);
+      const bool collinear = std::fabs(r) > criteria.max_signal_correlation;
       bool tie = collinear || grouped ||
                  standings.front().delta_bic - standings[i].delta_bic < criteria.ambiguous_delta_bic ||
                  held_out_tie(standings.front().held.unit_sse, standings[i].held.unit_sse, criteria.ambiguous_heldout_z);
@@ -742,6 +742,48 @@ SelectionResult select_effects(const SelectionProblem& problem, const Criteria& 
         }
       }
       if (tie) tie_in(other.adds);
+      if (tie || std::fabs(r) >= criteria.near_alternative_correlation) {
+        result.alternatives.push_back({best.effect, other.effect, r, !tie, ""});
+      }
+    }
+    // A near-collinear candidate whose evidence and amplitude hold but whose
+    // held-out errors fell too little alone (the record's noise too close to
+    // its signal for a fold to show it) is weighed as a passing one: the best
+    // must add evidence on top of it, or the record cannot tell them apart
+    // (a rate sensitivity of 60 mV per C/s on 30..42 C, where the casing's
+    // rate follows the room's difference: answered ambient_sensitivity alone).
+    if (is_series(problem)) {
+      for (const Trial& other : masked) {
+        if (other.score.p_value > criteria.max_p_value) continue;
+        if (std::find(tied.begin(), tied.end(), other.effect) != tied.end()) continue;
+        const double r = correlation(best.added_signal, other.added_signal);
+        if (std::fabs(r) < criteria.near_alternative_correlation) continue;
+        const Trial encompassing = try_on_top(other, best.adds, best.effect);
+        const bool tie = !(encompassing.score.p_value <= criteria.max_p_value && encompassing.score.in_bounds);
+        if (tie) tie_in(other.adds);
+        result.alternatives.push_back({best.effect, other.effect, r, !tie, ""});
+      }
+    }
+    // A passing candidate the record cannot tell from a tied one (a
+    // confounded pair: the rate and the ambient sensitivity where the casing
+    // follows the room) is tied too, whatever its own standing.
+    if (tied.size() > best.adds.size()) {
+      for (const Trial& other : passed) {
+        if (other.adds.size() != 1 || std::find(tied.begin(), tied.end(), other.effect) != tied.end()) continue;
+        const bool confounded = std::any_of(tied.begin(), tied.end(), [&](const std::string& name) {
+          return in_group(problem, name, other.effect);
+        });
+        if (!confounded) continue;
+        tie_in(other.adds);
+        const auto listed = std::find_if(result.alternatives.begin(), result.alternatives.end(),
+                                         [&](const Alternative& a) { return a.other == other.effect; });
+        if (listed != result.alternatives.end()) {
+          listed->told_apart = false;
+        } else {
+          result.alternatives.push_back(
+              {best.effect, other.effect, correlation(best.added_signal, other.added_signal), false, ""});
+        }
+      }
     }
     for (std::size_t k = 0; k < best.adds.size(); ++k) {
       AddedEffect added;
@@ -780,6 +822,11 @@ SelectionResult select_effects(const SelectionProblem& problem, const Criteria& 
   }
   if (progress) progress(1.0);
 
+  // An alternative told apart that a later round added is an effect of its
+  // own, not an alternative.
+  std::erase_if(result.alternatives, [&](const Alternative& a) {
+    return a.told_apart && std::find(effects.begin(), effects.end(), a.other) != effects.end();
+  });
   if (!result.ambiguous.empty()) {
     // Effects already found stay listed in `added`; the verdict names the tie.
     result.verdict = "ambiguous:" + join(result.ambiguous);
@@ -803,7 +850,26 @@ std::string verdict_statement(const SelectionResult& r) {
     return out;
   };
   if (!r.ambiguous.empty()) {
-    return "consistent with either " + listed(r.ambiguous, " or ") + "; the record cannot tell them apart";
+    // How alike the tied contributions are, against the strongest's.
+    double lo = 1.0;
+    double hi = -1.0;
+    std::string strongest;
+    for (const auto& a : r.alternatives) {
+      if (a.told_apart) continue;
+      lo = std::min(lo, a.correlation);
+      hi = std::max(hi, a.correlation);
+      strongest = a.effect;
+    }
+    char alike[160] = "";
+    if (hi >= lo) {
+      if (hi - lo < 5e-4) {
+        std::snprintf(alike, sizeof alike, " (their fitted contributions correlate %.3f over the record)", hi);
+      } else {
+        std::snprintf(alike, sizeof alike, " (their fitted contributions correlate %.3f..%.3f with %s's)", lo, hi,
+                      strongest.c_str());
+      }
+    }
+    return "consistent with either " + listed(r.ambiguous, " or ") + alike + "; the record cannot tell them apart";
   }
   std::vector<std::string> found;
   for (const auto& a : r.added) found.push_back(a.effect);

@@ -9,6 +9,7 @@
 
 #include "gyrotc/algorithms/identify/residual_stats.hpp"
 #include "gyrotc/algorithms/identify/selection.hpp"
+#include "gyrotc/algorithms/identify/separating_experiment.hpp"
 #include "gyrotc/algorithms/model/effects.hpp"
 
 namespace gyrotc::identify {
@@ -24,9 +25,9 @@ constexpr double kMinRampR0 = 1e-3;  // C/s
 // that are fitted (they hold samples and are not settling after a gap).
 struct Bins {
   Eigen::VectorXd time_s, temp_c, rate_c_per_s, y, ambient_c, tec_a, tec_a2, count;
-  // dT/dt over SeriesOptions::hysteresis_rate_s: the argument of the ramp
-  // hysteresis' tanh.
-  Eigen::VectorXd hysteresis_rate_c_per_s;
+  // dT/dt over SeriesOptions::effect_rate_s: a rate sensitivity's regressor
+  // and the argument of a ramp hysteresis' tanh.
+  Eigen::VectorXd effect_rate_c_per_s;
   double step_s = 1.0;  // bin width
   std::vector<Eigen::Index> rows;
   int gaps = 0;
@@ -115,12 +116,12 @@ Bins make_bins(const SeriesRecord& r, const std::vector<double>& y, const Series
     return rate;
   };
   const std::vector<double> rate = rate_over(smooth);
-  const std::vector<double> hysteresis_rate =
-      rate_over(centred_mean(r.time_s, r.sensor_c, starts, 0.5 * o.hysteresis_rate_s));
+  const std::vector<double> effect_rate =
+      rate_over(centred_mean(r.time_s, r.sensor_c, starts, 0.5 * o.effect_rate_s));
   Bins b;
   b.step_s = std::max(median_step(r.time_s), span / static_cast<double>(o.max_bins));
   const auto count = static_cast<Eigen::Index>(std::floor(span / b.step_s)) + 1;
-  for (auto* v : {&b.time_s, &b.temp_c, &b.rate_c_per_s, &b.hysteresis_rate_c_per_s, &b.y, &b.ambient_c, &b.tec_a,
+  for (auto* v : {&b.time_s, &b.temp_c, &b.rate_c_per_s, &b.effect_rate_c_per_s, &b.y, &b.ambient_c, &b.tec_a,
                   &b.tec_a2, &b.count}) {
     *v = Eigen::VectorXd::Zero(count);
   }
@@ -131,7 +132,7 @@ Bins make_bins(const SeriesRecord& r, const std::vector<double>& y, const Series
     b.time_s(e) += r.time_s[i] - t0;
     b.temp_c(e) += smooth.mean[i];
     b.rate_c_per_s(e) += rate[i];
-    b.hysteresis_rate_c_per_s(e) += hysteresis_rate[i];
+    b.effect_rate_c_per_s(e) += effect_rate[i];
     b.y(e) += y[i];
     b.ambient_c(e) += r.ambient_c[i];
     if (has_tec) {
@@ -145,7 +146,7 @@ Bins make_bins(const SeriesRecord& r, const std::vector<double>& y, const Series
       b.time_s(e) = (static_cast<double>(e) + 0.5) * b.step_s;
       continue;
     }
-    for (auto* v : {&b.time_s, &b.temp_c, &b.rate_c_per_s, &b.hysteresis_rate_c_per_s, &b.y, &b.ambient_c, &b.tec_a,
+    for (auto* v : {&b.time_s, &b.temp_c, &b.rate_c_per_s, &b.effect_rate_c_per_s, &b.y, &b.ambient_c, &b.tec_a,
                     &b.tec_a2}) {
       (*v)(e) /= m;
     }
@@ -155,7 +156,7 @@ Bins make_bins(const SeriesRecord& r, const std::vector<double>& y, const Series
   for (Eigen::Index e = 1; e + 1 < count; ++e) {
     if (b.count(e) > 0.0) continue;
     b.rate_c_per_s(e) = (b.temp_c(e + 1) - b.temp_c(e - 1)) / (2.0 * b.step_s);
-    b.hysteresis_rate_c_per_s(e) = b.rate_c_per_s(e);
+    b.effect_rate_c_per_s(e) = b.rate_c_per_s(e);
   }
   // Fitted bins: with samples, and not within settle_s after a gap.
   std::vector<double> settle_until;
@@ -187,7 +188,7 @@ Bins fitted_view(const Bins& grid) {
   Bins f;
   for (auto [to, from] : {std::pair{&f.time_s, &grid.time_s}, {&f.temp_c, &grid.temp_c},
                           {&f.rate_c_per_s, &grid.rate_c_per_s},
-                          {&f.hysteresis_rate_c_per_s, &grid.hysteresis_rate_c_per_s}, {&f.y, &grid.y},
+                          {&f.effect_rate_c_per_s, &grid.effect_rate_c_per_s}, {&f.y, &grid.y},
                           {&f.ambient_c, &grid.ambient_c},
                           {&f.tec_a, &grid.tec_a}, {&f.tec_a2, &grid.tec_a2}, {&f.count, &grid.count}}) {
     *to = gather(*from, grid.rows);
@@ -371,9 +372,9 @@ SeparableModel gyro_model(const GyroSetup& s, const std::vector<std::string>& ef
       if (e == "thermal_lag") {
         temp = gather(first_order_lag(b.temp_c, b.step_s, p), b.rows);
       } else if (e == "rate_sensitivity") {
-        design.col(c) = rate;
+        design.col(c) = gather(b.effect_rate_c_per_s, b.rows);
       } else if (e == "ramp_hysteresis") {
-        design.col(c) = (gather(b.hysteresis_rate_c_per_s, b.rows).array() / p).tanh();
+        design.col(c) = (gather(b.effect_rate_c_per_s, b.rows).array() / p).tanh();
       } else if (e == "ambient_sensitivity") {
         design.col(c) = gather(b.ambient_c, b.rows).array() - model::kAmbientReferenceC;
       } else if (e == "warm_up") {
@@ -773,6 +774,28 @@ void check_record(const SeriesRecord& r, SeriesTarget target, const SeriesOption
 // from rate_sensitivity (the bias curve absorbs the k * T part).
 constexpr double kConfoundedCorrelation = 0.98;
 
+// What the record covered (separating_experiment.hpp): the casing's range
+// and its ramps.
+RecordCoverage coverage_of(const Bins& bins, double duration_s) {
+  RecordCoverage c;
+  c.low_c = bins.temp_c.minCoeff();
+  c.high_c = bins.temp_c.maxCoeff();
+  c.duration_s = duration_s;
+  const Eigen::Index n = bins.temp_c.size();
+  // Moving: faster than a DS18B20 step a minute.
+  std::vector<double> ramps;
+  for (Eigen::Index i = 0; i < n; ++i) {
+    const double per_min = 60.0 * std::fabs(bins.rate_c_per_s(i));
+    if (per_min > 0.0625) ramps.push_back(per_min);
+  }
+  if (!ramps.empty()) {
+    std::sort(ramps.begin(), ramps.end());
+    c.ramp_slow_c_per_min = ramps[ramps.size() / 10];
+    c.ramp_fast_c_per_min = ramps[ramps.size() * 9 / 10];
+  }
+  return c;
+}
+
 }  // namespace
 
 Identification identify_series(const SeriesRecord& record, SeriesTarget target,
@@ -791,7 +814,7 @@ Identification identify_series(const SeriesRecord& record, SeriesTarget target,
     const Eigen::VectorXd die = first_order_lag(grid.temp_c, grid.step_s, options.base_die_tau_s);
     grid.rate_c_per_s = (grid.temp_c - die) / options.base_die_tau_s;
     // The die's dT/dt is the casing's through the same lag.
-    grid.hysteresis_rate_c_per_s = first_order_lag(grid.hysteresis_rate_c_per_s, grid.step_s, options.base_die_tau_s);
+    grid.effect_rate_c_per_s = first_order_lag(grid.effect_rate_c_per_s, grid.step_s, options.base_die_tau_s);
     grid.temp_c = die;
   }
   if (grid.rows.size() < kMinFittedBins) {
@@ -963,6 +986,11 @@ Identification identify_series(const SeriesRecord& record, SeriesTarget target,
   id.verdict = sel.verdict;
   id.statement = verdict_statement(sel);
   id.unexplained = sel.unexplained;
+  id.alternatives = sel.alternatives;
+  if (!id.alternatives.empty()) {
+    const RecordCoverage coverage = coverage_of(bins, duration);
+    for (auto& a : id.alternatives) a.experiment = separating_experiment(a.effect, a.other, coverage);
+  }
   if (target == SeriesTarget::gyro_mv) {
     // Bounds of the wander's correlation time (wander_noise.hpp searches
     // within them); at the upper one the wander is as slow as the record

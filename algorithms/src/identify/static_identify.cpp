@@ -6,6 +6,7 @@
 
 #include "gyrotc/algorithms/identify/residual_stats.hpp"
 #include "gyrotc/algorithms/identify/selection.hpp"
+#include "gyrotc/algorithms/identify/separating_experiment.hpp"
 
 namespace gyrotc::identify {
 namespace {
@@ -271,6 +272,13 @@ Identification identify_static(std::span<const double> temp_c, std::span<const d
   id.verdict = sel.verdict;
   id.statement = verdict_statement(sel);
   id.unexplained = sel.unexplained;
+  id.alternatives = sel.alternatives;
+  {
+    RecordCoverage table;
+    table.low_c = *std::min_element(temp_c.begin(), temp_c.end());
+    table.high_c = *std::max_element(temp_c.begin(), temp_c.end());
+    for (auto& a : id.alternatives) a.experiment = separating_experiment(a.effect, a.other, table);
+  }
   id.final_rms = std::sqrt(r1.squaredNorm() / static_cast<double>(n));
   id.final_max_abs = r1.cwiseAbs().maxCoeff();
   id.whiteness_p_after = ljung_box_p({r1.data(), n}, lags);

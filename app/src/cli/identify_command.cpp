@@ -17,6 +17,7 @@
 #include <string>
 #include <vector>
 
+#include "gyrotc/algorithms/identify/separating_experiment.hpp"
 #include "gyrotc/algorithms/identify/series_identify.hpp"
 #include "gyrotc/algorithms/identify/static_identify.hpp"
 #include "gyrotc/app/cli/cli_main.hpp"
@@ -158,6 +159,14 @@ nlohmann::json to_json(const id::Identification& r, double elapsed_s) {
   j["statement"] = r.statement;
   j["unexplained"] = r.unexplained;
   j["noise_warnings"] = r.noise_warnings;
+  j["alternatives"] = json::array();
+  for (const auto& a : r.alternatives) {
+    j["alternatives"].push_back({{"effect", a.effect},
+                                 {"other", a.other},
+                                 {"correlation", a.correlation},
+                                 {"told_apart", a.told_apart},
+                                 {"experiment", a.experiment}});
+  }
   if (!r.note.empty()) j["note"] = r.note;
   j["final"] = {{"rms", r.final_rms}, {"max_abs", r.final_max_abs}, {"whiteness_p", r.whiteness_p_after}};
   j["shrink"] = r.shrink;
@@ -191,6 +200,7 @@ std::string summary(const id::Identification& r, double elapsed_s) {
     std::snprintf(line, sizeof line, "  (delta BIC %.1f, rms after %.4g)\n", a.delta_bic, a.rms_after);
     s << line;
   }
+  for (const auto& a : r.alternatives) s << "alternative: " << id::alternative_line(a) << "\n";
   for (const auto& w : r.noise_warnings) s << "warning: " << w << "\n";
   if (!r.note.empty()) s << "note: " << r.note << "\n";
   s << "verdict: " << r.verdict << " (" << r.statement << ")\n";
@@ -280,7 +290,8 @@ void write_report(const id::Identification& r, const IdentifyOptions& o, double 
   md << "| baseline | " << r.baseline_rms << " | " << r.baseline_max_abs << " | " << r.whiteness_p_before << " |\n";
   md << "| final | " << r.final_rms << " | " << r.final_max_abs << " | " << r.whiteness_p_after << " |\n\n";
   if (!r.baseline_params.empty()) {
-    md << "Calibrated baseline:";
+    // On time series the noise parameters listed are the final model's.
+    md << (r.x_name == "time_s" ? "Calibrated baseline (its noise: the final model's):" : "Calibrated baseline:");
     for (const auto& p : r.baseline_params) md << " " << p.name << " = " << p.value << ";";
     md << "\n\n";
   }
@@ -304,6 +315,16 @@ void write_report(const id::Identification& r, const IdentifyOptions& o, double 
       md << " " << a.fold_rms_before[f] << " -> " << a.fold_rms_after[f] << ";";
     }
     md << "\n\n";
+  }
+  if (!r.alternatives.empty()) {
+    md << "## Alternatives\n\nEffects whose fitted contributions are alike over this record, and the experiment "
+          "that would tell them apart:\n\n";
+    for (const auto& a : r.alternatives) {
+      md << "- " << id::alternative_line(a);
+      if (a.told_apart && !a.experiment.empty()) md << " (to confirm: " << a.experiment << ")";
+      md << ".\n";
+    }
+    md << "\n";
   }
   for (const auto& w : r.noise_warnings) md << "Warning: " << w << ".\n\n";
   if (!r.note.empty()) md << "Note: " << r.note << "\n\n";

@@ -183,6 +183,37 @@ TEST_CASE("a 2 mV ramp hysteresis on a temperature triangle is named and the gap
   CHECK(id.noise_warnings[0].find("baseline model's bias wander sits at the bound") != std::string::npos);
 }
 
+TEST_CASE("a rate sensitivity an ambient sensitivity follows on a narrow range is answered as their ambiguity") {
+  // Issue 74. On 30..42 C the casing's rate is the room's difference through
+  // the casing's lag: the two contributions correlate 0.997. The rate
+  // sensitivity's evidence held (p = 8e-7, t = 7.4) but its held-out folds
+  // fell too little alone, and the record was answered ambient_sensitivity.
+  IndependentSpec s = gyrotc::identify_test::narrow_range(107920);
+  s.rate_mv_per_c_per_s = 60.0;
+  const auto id = identify_series(make_independent_record(s), SeriesTarget::gyro_mv, SeriesOptions{});
+  CHECK(id.verdict == "ambiguous:rate_sensitivity+ambient_sensitivity");
+}
+
+TEST_CASE("an ambiguity gives the tied effects' correlation and the experiment that would tell them apart") {
+  // Issue 74: a 200 s lag where the bias curve's slope changes by a quarter.
+  IndependentSpec s = gyrotc::identify_test::narrow_range(107920);
+  s.lag_tau_s = 200.0;
+  const auto id = identify_series(make_independent_record(s), SeriesTarget::gyro_mv, SeriesOptions{});
+  INFO(id.statement);
+  REQUIRE(id.verdict.rfind("ambiguous:thermal_lag+rate_sensitivity", 0) == 0);
+  CHECK(id.statement.find("correlate 0.99") != std::string::npos);
+  const Alternative* tie = nullptr;
+  for (const auto& a : id.alternatives) {
+    const bool pair = (a.effect == "thermal_lag" && a.other == "rate_sensitivity") ||
+                      (a.effect == "rate_sensitivity" && a.other == "thermal_lag");
+    if (pair && !a.told_apart) tie = &a;
+  }
+  REQUIRE(tie != nullptr);
+  CHECK(tie->correlation > 0.98);
+  // The experiment names the record's own range, which was too narrow.
+  CHECK(tie->experiment.find("a record over a wider range (this one spans 30.") != std::string::npos);
+}
+
 // Issue 22: across a gap the record cannot tell a drift from the wander's
 // level change. This null record (300 s wander, one hour missing) was
 // answered linear_drift at p = 3e-7 when the drift was tried across the gap.

@@ -162,4 +162,19 @@ IndependentSpec lag_and_warm_up_on_a_triangle(std::uint64_t seed) {
   return s;
 }
 
+IndependentSpec narrow_range(std::uint64_t seed) {
+  IndependentSpec s;
+  s.programme = {{0.0, 36.0}, {1800.0, 36.0}};
+  double level = 30.0;
+  while (s.programme.back().first < 6.0 * 3600.0) {
+    const double t = s.programme.back().first + std::fabs(level - s.programme.back().second) / 0.5 * 60.0;
+    s.programme.push_back({t, level});
+    s.programme.push_back({t + 1200.0, level});
+    level = level == 30.0 ? 42.0 : 30.0;
+  }
+  s.duration_s = s.programme.back().first;
+  s.seed = seed;
+  return s;
+}
+
 }  // namespace gyrotc::identify_test

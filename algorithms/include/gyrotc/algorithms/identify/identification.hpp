@@ -51,6 +51,25 @@ struct Criteria {
   double ambiguous_delta_bic = 30.0;
   double max_signal_correlation = 0.999;
   double ambiguous_heldout_z = 2.0;
+  // A named effect's alternatives whose fitted contributions correlate with
+  // its own at least this much over the record are reported beside it, with
+  // the experiment that would tell them apart. One that failed only a
+  // held-out test (its evidence and amplitude hold) is weighed as a passing
+  // one is: if the named effect adds nothing on top of it, the record cannot
+  // tell them apart and the verdict is ambiguous.
+  double near_alternative_correlation = 0.9;
+};
+
+// Two candidates whose fitted contributions are alike over the record: the
+// tied ones of an ambiguous verdict, or a named effect and its nearest
+// alternative, which the record told apart.
+struct Alternative {
+  std::string effect;        // the named effect (the strongest of a tie)
+  std::string other;         // the alternative
+  double correlation = 0.0;  // of the two fitted contributions over the record
+  bool told_apart = false;   // the record separated them (the named effect adds on top of the other, not
+                             // the other on top of it); false: tied
+  std::string experiment;    // what to measure next to tell them apart (empty: nothing known)
 };
 
 struct EffectParam {
@@ -109,7 +128,9 @@ struct Identification {
   std::string units;   // units of the residual (mV, C, ln(Q), Hz)
   std::string x_name;  // "time_s" or "temp_c"
 
-  // Parameters of the calibrated baseline worth reporting (may be empty).
+  // Parameters of the calibrated baseline worth reporting (may be empty);
+  // on time series with the noise of the final model (white_sd_per_bin,
+  // wander_sd, wander_tau_s), which the report says.
   std::vector<EffectParam> baseline_params;
   double baseline_rms = 0.0;
   double baseline_max_abs = 0.0;
@@ -127,6 +148,7 @@ struct Identification {
   // explains the residual (...)".
   std::string statement;
   std::vector<std::string> unexplained;  // the probes that passed
+  std::vector<Alternative> alternatives;
   // Series: a noise parameter at the bound of its search, in words (the
   // baseline's wander at the record's quarter has taken structure).
   std::vector<std::string> noise_warnings;

@@ -105,6 +105,7 @@ struct SelectionResult {
   std::string verdict;
   std::vector<std::string> ambiguous;    // the tied candidates, when ambiguous
   std::vector<std::string> unexplained;  // probes that passed
+  std::vector<Alternative> alternatives; // without the experiment (the record's to say)
   SeparableFit baseline;
   SeparableFit final_fit;
   WanderNoise baseline_noise;  // series only

@@ -19,7 +19,8 @@
 // only on records without gaps, across which it cannot be told from the
 // bias wander; the note says so). T is the
 // sensor reading smoothed over `smooth_s` (centred, no lag) and dT/dt its
-// centred difference (a ramp hysteresis' over `hysteresis_rate_s`).
+// centred difference (a rate sensitivity's and a ramp hysteresis' over
+// `effect_rate_s`).
 //
 // sensor_c baseline: one-node RC casing, T = a*L[ambient] + g*L[tec_a] +
 // c + e*exp(-t/tau) with L the unit-gain first-order lag of time constant
@@ -43,16 +44,16 @@ struct SeriesRecord {
 
 struct SeriesOptions {
   double smooth_s = 60.0;
-  // The dT/dt a ramp hysteresis follows: the difference of two means over
-  // this window, this far apart (the other effects' dT/dt: over smooth_s).
-  // Longer, because the hysteresis is a steep function of the rate: on a
-  // casing approaching a hold the reading steps by 0.0625 C once in minutes,
-  // and over 60 s its slope flickered between 0 and a step per window
-  // (0.001 C/s, a third of the tanh's scale), which the tanh turned into
-  // structure an ambient sensitivity or the wander took: a 2 mV hysteresis
-  // on a -30..70 C triangle at 0.5 C/min was answered ambient_sensitivity or
-  // a tie on 12 of 12 seeds (docs/IDENTIFY.md, run 10).
-  double hysteresis_rate_s = 120.0;
+  // The dT/dt a rate sensitivity and a ramp hysteresis follow: the
+  // difference of two means over this window, this far apart (the probes',
+  // the regions' and the identifiability rules' dT/dt: over smooth_s).
+  // Longer, because these effects act through the rate itself: on a casing
+  // approaching a hold, or ramping slowly, the reading steps by 0.0625 C once
+  // in minutes, and over 60 s its slope flickers between 0 and a step per
+  // window (0.001 C/s), noise in the regressor that the effect's amplitude
+  // multiplies and the wander then takes in its place (docs/IDENTIFY.md,
+  // runs 10 and 11).
+  double effect_rate_s = 120.0;
   std::size_t max_bins = 3000;
   int folds = 5;
   double cv_block_s = 300.0;
