@@ -67,8 +67,8 @@ struct Alternative {
   std::string effect;        // the named effect (the strongest of a tie)
   std::string other;         // the alternative
   double correlation = 0.0;  // of the two fitted contributions over the record
-  bool told_apart = false;   // the record separated them (the named effect adds on top of the other, not
-                             // the other on top of it); false: tied
+  bool told_apart = false;   // the record separated them (by delta BIC and the held-out errors, or the
+                             // named effect adding on top of the other and not the reverse); false: tied
   std::string experiment;    // what to measure next to tell them apart (empty: nothing known)
 };
 
