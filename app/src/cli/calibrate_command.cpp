@@ -94,14 +94,15 @@ const char* to_string(LagFrom from) noexcept {
 
 struct DieLag {
   double lag_s = 0.0;
+  double lag_s_std = 0.0;  // where measured
   LagFrom from = LagFrom::none;
 };
 
 DieLag die_lag_for(const CalibrateOptions& o, const SweepLags& lags) {
-  if (o.die_lag_s) return {*o.die_lag_s, LagFrom::given};
+  if (o.die_lag_s) return {*o.die_lag_s, 0.0, LagFrom::given};
   const calibrate::LagAndHysteresis& s = lags.passes.separation;
-  if (s.separated) return {std::max(0.0, s.die_lag_s), LagFrom::measured};
-  if (lags.record.found) return {lags.record.die_lag_s, LagFrom::record};
+  if (s.separated) return {std::max(0.0, s.die_lag_s), s.die_lag_s_std, LagFrom::measured};
+  if (lags.record.found) return {lags.record.die_lag_s, lags.record.die_lag_s_std, LagFrom::record};
   return {};
 }
 
@@ -138,7 +139,7 @@ void fit_and_check(const std::string& record, const CalibrateOptions& o) {
                      "; run the sweep at a lower ambient, or calibrate in a chamber (gyrotc fit)");
   }
   if (!o.json) print_die_lag(lag);
-  fit_record_auto(record, lag.lag_s, o.out, o.plot, o.json,
+  fit_record_auto(record, lag.lag_s, lag.lag_s_std, o.out, o.plot, o.json,
                   {{"up_down", up_down_json(split)},
                    {"record_lag", record_lag_json(lags.record)},
                    {"die_lag_from", to_string(lag.from)}});

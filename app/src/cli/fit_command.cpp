@@ -17,7 +17,9 @@
 #include <string>
 #include <vector>
 
+#include "gyrotc/algorithms/calibrate/calibration_bound.hpp"
 #include "gyrotc/algorithms/calibrate/die_temperature.hpp"
+#include "gyrotc/algorithms/calibrate/temperature_bins.hpp"
 #include "gyrotc/algorithms/fit/compensator.hpp"
 #include "gyrotc/algorithms/fit/cross_validation.hpp"
 #include "gyrotc/algorithms/fit/fit_method.hpp"
@@ -57,6 +59,9 @@ struct FitOptions {
   int restarts = 3;
   double bin_width_c = 1.0;
   double die_lag_s = 0.0;  // a time series binned by the die's temperature (calibrate/die_temperature.hpp)
+  double die_lag_s_std = 0.0;  // its standard error, where it was measured (`calibrate`): the bound draws from it
+  bool bound = true;           // the calibration's own error bound (calibrate/calibration_bound.hpp)
+  int bound_replicates = 200;
   double scale_mv_per_dps = fit::Compensator::kSeedScaleMvPerDps;
   std::vector<std::string> accept;  // record checks overridden: span, uneven, unsettled
   nlohmann::json extra_json = nlohmann::json::object();  // a caller's keys added to the --json summary
@@ -68,6 +73,10 @@ struct Points {
   std::string kind;                   // "table" or "time series (N samples, W C bins)"
   std::size_t samples = 0;            // a time series' rows (0: a table)
   std::vector<std::string> accepted;  // "check: reason" of each refusal --accept overrode
+  // A time series' rows, for the bound's bootstrap (empty for a table).
+  std::vector<double> time_s;
+  std::vector<double> sensor_c;
+  std::vector<double> series_gyro_mv;
 };
 
 // A Table 2-like file: one row per temperature.
@@ -157,23 +166,10 @@ Points read_series(const CsvTable& table, const FitOptions& o) {
   // at the die's temperature when the die's lag is given.
   std::vector<std::string> accepted = screen_record(table, time_s, sensor_c, o);
   const std::vector<double> temp = calibrate::die_temperature_c(time_s, sensor_c, o.die_lag_s);
-  struct Bin {
-    double temp_sum = 0.0;
-    double gyro_sum = 0.0;
-    std::size_t count = 0;
-  };
-  std::map<long long, Bin> bins;
-  for (std::size_t i = 0; i < temp.size(); ++i) {
-    Bin& b = bins[static_cast<long long>(std::floor(temp[i] / bin_width_c))];
-    b.temp_sum += temp[i];
-    b.gyro_sum += gyro[i];
-    ++b.count;
-  }
+  calibrate::TemperatureBins bins = calibrate::bin_by_temperature(temp, gyro, bin_width_c);
   Points p;
-  for (const auto& [key, b] : bins) {
-    p.temp_c.push_back(b.temp_sum / static_cast<double>(b.count));
-    p.gyro_mv.push_back(b.gyro_sum / static_cast<double>(b.count));
-  }
+  p.temp_c = std::move(bins.temp_c);
+  p.gyro_mv = std::move(bins.gyro_mv);
   char buf[160];
   if (o.die_lag_s > 0.0) {
     std::snprintf(buf, sizeof buf, "time series, %zu samples in %g C bins of the die (the sensor through a %.1f s lag)",
@@ -184,6 +180,9 @@ Points read_series(const CsvTable& table, const FitOptions& o) {
   p.kind = buf;
   p.samples = temp.size();
   p.accepted = std::move(accepted);
+  p.time_s = time_s;
+  p.sensor_c = sensor_c;
+  p.series_gyro_mv = gyro;
   return p;
 }
 
@@ -402,10 +401,87 @@ void print_model_text(const fit::BiasModel& m) {
   }
 }
 
+// The calibration's own bound on its error (issue 73), in deg/s: the whole
+// choice refitted to the record's noise redrawn (calibrate/calibration_bound.hpp).
+// None (and why_not says why) with --no-bound, for a BP network, whose 200
+// trainings would take a quarter of an hour, and for a table whose model
+// passes through every point, which leaves no residual to redraw.
+std::optional<CalibrationErrorBound> error_bound(const FitOptions& o, const Points& p, const fit::MethodFit& f,
+                                                 const fit::MethodOptions& mo, std::string& why_not) {
+  if (!o.bound) {
+    why_not = "--no-bound";
+    return std::nullopt;
+  }
+  if (f.method == fit::Method::bp_network) {
+    why_not = "a BP network's refits would take too long";
+    return std::nullopt;
+  }
+  if (p.samples == 0 && !(static_cast<double>(p.temp_c.size()) > f.dof + 1.0)) {
+    why_not = "the model passes through every point of the table: no residual tells the points' noise";
+    return std::nullopt;
+  }
+  calibrate::BoundOptions bo;
+  bo.replicates = o.bound_replicates;
+  bo.seed = o.seed;
+  bo.bin_width_c = o.bin_width_c;
+  Progress progress("the calibration's error bound: refitting the record's noise redrawn");
+  bo.progress = [&progress](int done, int of) { progress.update(static_cast<double>(done) / of); };
+  calibrate::CalibrationBound b;
+  std::string pilot_name = "the calibration itself";
+  try {
+    // The replicates' truth (calibrate/calibration_bound.hpp): a recording's the choice's best
+    // candidate, undersmoothed; a table's the best candidate as it is (a few dozen points: the
+    // residuals' inflation for a pilot near them in parameters outgrows what it would carry), or
+    // the calibration itself where that passes through every point.
+    const bool table = p.samples == 0;
+    fit::MethodFit pilot = table ? (f.candidates.empty() ? f : fit::fit_method(p.temp_c, p.gyro_mv,
+                                                                                 calibrate::pilot_options(f, mo)))
+                                 : calibrate::fit_pilot(p.temp_c, p.gyro_mv, f, mo);
+    if (table && !(static_cast<double>(p.temp_c.size()) > 2.0 * pilot.dof)) pilot = f;
+    if (pilot.dof != f.dof || pilot.method != f.method) {
+      pilot_name = std::string(fit::method_name(pilot.method)) + " (" + pilot.structure +
+                   (table ? "; the choice's best candidate)"
+                          : "; the choice's best candidate, a smoothing spline with twice its parameters)");
+    }
+    b = p.samples > 0 ? calibrate::recording_bound(p.time_s, p.sensor_c, p.series_gyro_mv, o.die_lag_s,
+                                                   o.die_lag_s_std, pilot.model, mo, bo)
+                      : calibrate::table_bound(p.temp_c, p.gyro_mv, pilot.dof, pilot.model, mo, bo);
+  } catch (const std::invalid_argument& e) {
+    throw InputError(o.data + ": the calibration's error bound: " + e.what() +
+                     " (--no-bound writes the calibration without one)");
+  }
+  progress.finish();
+  const double s = o.scale_mv_per_dps;
+  CalibrationErrorBound out;
+  out.confidence = b.confidence;
+  out.range_dps = std::ceil(b.range_bound_mv / s * 1e5) / 1e5;
+  // Rounded for the file: a hundredth of a degree, the bound up to a hundred-thousandth of a deg/s.
+  for (double t : b.temp_c) out.temp_c.push_back(std::round(t * 100.0) / 100.0);
+  for (double mv : b.bound_mv) out.dps.push_back(std::ceil(mv / s * 1e5) / 1e5);
+  out.how = b.how + "; the refits' truth: " + pilot_name;
+  if (b.failed > 0) out.how += "; " + std::to_string(b.failed) + " replicates the method could not fit left out";
+  return out;
+}
+
+std::string bound_line(const CalibrationErrorBound& b) {
+  const auto [lo, hi] = std::minmax_element(b.dps.begin(), b.dps.end());
+  char buf[200];
+  std::snprintf(buf, sizeof buf,
+                "calibration error <= %.4f deg/s (%.0f %%) over %.1f .. %.1f C; at one temperature %.4f .. %.4f deg/s",
+                b.range_dps, 100.0 * b.confidence, b.lo_c(), b.hi_c(), *lo, *hi);
+  return buf;
+}
+
+ordered_json bound_json(const CalibrationErrorBound& b) {
+  return ordered_json{{"confidence", b.confidence}, {"range_dps", b.range_dps}, {"range_c", {b.lo_c(), b.hi_c()}},
+                      {"how", b.how},           {"c", b.temp_c},           {"dps", b.dps}};
+}
+
 // The calibration report: the points and the model, and below them each
 // point's held-out residual (every choice repeated without it), so an
 // engineer sees where in temperature the model is trusted and by how much.
-void write_fit_plot(const FitOptions& o, const Points& p, const fit::MethodFit& f, const std::vector<double>& held_out) {
+void write_fit_plot(const FitOptions& o, const Points& p, const fit::MethodFit& f, const std::vector<double>& held_out,
+                    const std::optional<CalibrationErrorBound>& bound) {
   const double s = o.scale_mv_per_dps;
   const auto [lo, hi] = std::minmax_element(p.temp_c.begin(), p.temp_c.end());
   plot::Figure fig;
@@ -440,15 +516,28 @@ void write_fit_plot(const FitOptions& o, const Points& p, const fit::MethodFit& 
   points.markers = true;
   model.width_px = 1.8;
   values.series = {points, model};  // the model over the points: dense bins would hide it
+  plot::Series held{"", p.temp_c, {}, "#d62728"};
   plot::Panel residual;
+  residual.series = {plot::Series{"", {*lo, *hi}, {0.0, 0.0}, "#888888", true}};
+  if (bound) {
+    // The band the true curve lies in at each temperature, beside the held-out residuals.
+    std::snprintf(label, sizeof label, "%.0f %% bound (all at once %.4f deg/s)", 100.0 * bound->confidence,
+                  bound->range_dps);
+    plot::Series upper{label, bound->temp_c, bound->dps, "#9467bd", true};
+    plot::Series lower{"", bound->temp_c, {}, "#9467bd", true};
+    for (double dps : bound->dps) lower.y.push_back(-dps);
+    residual.series.push_back(upper);
+    residual.series.push_back(lower);
+  }
   residual.y.title = "held-out residual (deg/s)";
   std::vector<double> dps;
   for (double r : held_out) dps.push_back(r / s);
   std::snprintf(label, sizeof label, "nested LOO max %.3f, rms %.3f deg/s", stats::max_abs(held_out) / s,
                 stats::rms(held_out) / s);
-  plot::Series held{label, p.temp_c, dps, "#d62728"};
+  held.label = label;
+  held.y = dps;
   held.markers = true;
-  residual.series = {plot::Series{"", {*lo, *hi}, {0.0, 0.0}, "#888888", true}, held};
+  residual.series.push_back(held);
   fig.panels = {values, residual};
   plot::write_svg(fig, o.plot);
 }
@@ -470,8 +559,10 @@ void run_single(const FitOptions& o) {
   if ((o.nested || !o.plot.empty()) && fit::method_chooses(mo)) nested = run_nested(p, mo, o.data);
   // The plot's residuals are held out also when nothing was chosen (then
   // nested LOO is the plain LOO).
-  if (!o.plot.empty()) write_fit_plot(o, p, f, nested.empty() ? run_nested(p, mo, o.data) : nested);
   progress.finish();
+  std::string no_bound;
+  const std::optional<CalibrationErrorBound> bound = error_bound(o, p, f, mo, no_bound);
+  if (!o.plot.empty()) write_fit_plot(o, p, f, nested.empty() ? run_nested(p, mo, o.data) : nested, bound);
   const double s = o.scale_mv_per_dps;
   std::optional<double> nested_max;
   std::optional<double> nested_rms;
@@ -492,7 +583,7 @@ void run_single(const FitOptions& o) {
                           nested_max,
                           nested_rms,
                           p.accepted};
-    save_calibration(f.model, o.out, s, src, o.die_lag_s);
+    save_calibration(f.model, o.out, s, src, o.die_lag_s, bound);
   }
   if (o.json) {
     ordered_json j{{"method", o.method},
@@ -518,6 +609,7 @@ void run_single(const FitOptions& o) {
     j["condition_number"] = f.condition_number;
     j["largest_breakpoint_step_mv"] = largest_step_mv(f.model);
     if (!f.candidates.empty()) j["candidates"] = candidates_json(f.candidates, s);
+    j["bound"] = bound ? bound_json(*bound) : ordered_json(nullptr);
     j["model"] = model_json(f.model);
     if (!o.out.empty()) j["out"] = o.out;
     if (!o.plot.empty()) j["plot"] = o.plot;
@@ -529,6 +621,11 @@ void run_single(const FitOptions& o) {
               f.structure.c_str());
   if (!f.choice.empty()) std::printf("choice: %s\n", f.choice.c_str());
   std::printf("points: %zu (%s, %g .. %g C), scale %g mV/(deg/s)\n", p.temp_c.size(), p.kind.c_str(), *lo, *hi, s);
+  if (bound) {
+    std::printf("bound: %s (%s)\n", bound_line(*bound).c_str(), bound->how.c_str());
+  } else {
+    std::printf("bound: none (%s)\n", no_bound.c_str());
+  }
   if (nested_max) {
     std::printf("held-out error, nested LOO (every choice repeated without the point):\n");
     std::printf("nested_loo_max_abs_dps: %.4f\n", *nested_max);
@@ -678,10 +775,11 @@ void require_positive(const T& values, const char* option) {
 
 }  // namespace
 
-void fit_record_auto(const std::string& data, double die_lag_s, const std::string& out, const std::string& plot,
-                     bool json, const nlohmann::json& extra_json) {
+void fit_record_auto(const std::string& data, double die_lag_s, double die_lag_s_std, const std::string& out,
+                     const std::string& plot, bool json, const nlohmann::json& extra_json) {
   FitOptions o;
   o.die_lag_s = die_lag_s;
+  o.die_lag_s_std = die_lag_s_std;
   o.extra_json = extra_json;
   o.data = data;
   o.method = "auto";
@@ -771,6 +869,12 @@ void add_fit_command(CLI::App& app) {
       ->check(CLI::IsMember({"span", "uneven", "unsettled"}));
   cmd->add_option("--scale", opts->scale_mv_per_dps, "Scale factor, mV/(deg/s) (seed Table 2: 8.774)")
       ->capture_default_str();
+  cmd->add_flag("--bound,!--no-bound", opts->bound,
+                "The calibration's own 95 % bound on its error (on by default; not for bpnn): the whole\n"
+                "choice refitted to the record's noise redrawn (a recording's residuals in blocks of its\n"
+                "own time order, a table's one by one); printed, in --json, in --out's [bound] and on --plot");
+  cmd->add_option("--bound-replicates", opts->bound_replicates, "The bound's refits (at least 20)")
+      ->capture_default_str();
   cmd->callback([opts] {
     if (!(opts->bin_width_c > 0.0)) throw InputError("--bin-width: must be positive");
     if (!(opts->die_lag_s >= 0.0 && std::isfinite(opts->die_lag_s))) {
@@ -780,6 +884,7 @@ void add_fit_command(CLI::App& app) {
     if (opts->dof < 0.0) throw InputError("--dof: must be positive");
     if (opts->cv_block_c && !(*opts->cv_block_c >= 0.0)) throw InputError("--cv-block: must be 0 or more");
     if (opts->restarts < 1) throw InputError("--restarts: must be at least 1");
+    if (opts->bound_replicates < 20) throw InputError("--bound-replicates: must be at least 20");
     require_positive(opts->hidden, "--hidden");
     if (opts->compare) {
       if (!opts->out.empty()) throw InputError("--out: not with --compare (choose one method)");

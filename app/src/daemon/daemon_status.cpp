@@ -51,6 +51,7 @@ std::string state_word(const DaemonStatus& s) {
   if (s.mode == "experiment") return "experiment";
   if (s.mode == "tec_off") return "tec_off";
   if ((s.flags & kFlagTecSaturated) != 0) return "saturated";
+  if ((s.flags & kFlagModelClamped) != 0) return "extrapolating";
   const double error_c = s.casing_c - s.setpoint_c;
   if (std::fabs(error_c) <= kHoldingBandC) return "holding";
   return error_c < 0.0 ? "warming" : "cooling";
@@ -68,6 +69,11 @@ std::string status_sentence(const DaemonStatus& s) {
   if (state == "experiment")
     return text::printf_string("experiment (%s): casing %.2f °C, TEC %+.2f A",
                                s.experiment.empty() ? "TEC programme" : s.experiment.c_str(), s.casing_c, s.tec_a);
+  if (state == "extrapolating") {
+    return text::printf_string("extrapolating: compensated at %.2f °C, outside the calibration's %.1f..%.1f °C; "
+                               "casing %.2f °C, TEC %+.2f A",
+                               s.compensation_c, s.calibration_lo_c, s.calibration_hi_c, s.casing_c, s.tec_a);
+  }
   if (state == "tec_off") return text::printf_string("TEC off (compensation only): casing %.2f °C", s.casing_c);
   if (state == "holding") {
     return text::printf_string("holding %.2f °C ±%.2f, TEC %+.2f A", s.setpoint_c, s.held_error_c, s.tec_a);
@@ -118,7 +124,12 @@ std::string status_json(const DaemonStatus& s) {
                       {"cleared_unix_s", active ? nlohmann::json(nullptr) : nlohmann::json(f.cleared_unix_s)}});
   }
   j["faults"] = faults;
-  j["calibration"] = {{"description", s.calibration}, {"sha256", s.calibration_sha256}};
+  j["calibration"] = {{"description", s.calibration},
+                      {"sha256", s.calibration_sha256},
+                      {"range_c", std::isfinite(s.calibration_lo_c)
+                                      ? nlohmann::json::array({s.calibration_lo_c, s.calibration_hi_c})
+                                      : nlohmann::json(nullptr)},
+                      {"bound_dps", number_or_null(s.calibration_bound_dps)}};
   j["latency_us"] = latency_us_json(s.latency);
   const LoopCounters& c = s.counters;
   j["counters"] = {{"samples", c.samples},
@@ -156,7 +167,8 @@ std::string prometheus_text(const DaemonStatus& s) {
   value("gyrotc_up", s.running ? 1.0 : 0.0);
   metric("gyrotc_state", "gauge", "The daemon's state: 1 for the current one (gyrotc status).");
   for (const char* st :
-       {"starting", "warming", "cooling", "holding", "saturated", "tec_off", "experiment", "fault", "stopped"}) {
+       {"starting", "warming", "cooling", "holding", "saturated", "tec_off", "experiment", "extrapolating", "fault",
+        "stopped"}) {
     value(std::string("gyrotc_state{state=\"") + st + "\"}", state_word(s) == st ? 1.0 : 0.0);
   }
   metric("gyrotc_casing_temperature_celsius", "gauge", "Casing temperature (DS18B20), last valid reading.");
@@ -201,6 +213,17 @@ std::string prometheus_text(const DaemonStatus& s) {
   value("gyrotc_calibration_info{sha256=\"" + label_value(s.calibration_sha256) + "\",description=\"" +
             label_value(s.calibration) + "\"}",
         1.0);
+  if (std::isfinite(s.calibration_lo_c)) {
+    metric("gyrotc_calibration_range_celsius", "gauge",
+           "The calibration's range: outside it the rate is compensated at its end (state extrapolating).");
+    value("gyrotc_calibration_range_celsius{end=\"low\"}", s.calibration_lo_c);
+    value("gyrotc_calibration_range_celsius{end=\"high\"}", s.calibration_hi_c);
+  }
+  if (std::isfinite(s.calibration_bound_dps)) {
+    metric("gyrotc_calibration_error_bound_dps", "gauge",
+           "The calibration's own 95 % bound on its error over its range, deg/s (its file's [bound]).");
+    value("gyrotc_calibration_error_bound_dps", s.calibration_bound_dps);
+  }
   const LoopCounters& c = s.counters;
   const struct {
     const char* name;

@@ -87,8 +87,7 @@ double current_limit_a(const ControllerConfig& c) {
 
 // What the status says of this daemon from its start on.
 StatusPublisherOptions status_options(const DaemonConfig& config, const std::string& experiment,
-                                      const std::string& calibration,
-                                      const std::string& calibration_sha256, double started_unix_s) {
+                                      const CalibrationInUse& calibration, double started_unix_s) {
   StatusPublisherOptions o;
   o.status_file = config.output.status_file;
   o.metrics_file = config.output.metrics_file;
@@ -100,8 +99,7 @@ StatusPublisherOptions status_options(const DaemonConfig& config, const std::str
   s.experiment = experiment;
   s.started_unix_s = started_unix_s;
   s.tec_limit_a = current_limit_a(config.controller);
-  s.calibration = calibration;
-  s.calibration_sha256 = calibration_sha256;
+  set_status_calibration(s, calibration);
   return o;
 }
 
@@ -184,9 +182,7 @@ std::string run_session(const SessionOptions& options) {
   std::vector<std::unique_ptr<fit::Compensator>> compensators;
   std::vector<std::unique_ptr<ControllerReload>> reloads;  // each SIGHUP's controller and loop, alive to the end
   CalibrationInUse calibration = load_calibration_in_use(config.calibration_file);
-  const std::string calibration_text = describe(calibration);
-  const std::string calibration_sha256 = calibration.sha256;
-  compensators.push_back(make_compensator(std::move(calibration)));
+  compensators.push_back(make_compensator(calibration));
   Controller controller(config.controller, *compensators.back());
   tune::IdentificationExperiment experiment(tune::ExperimentPlan{}.scaled(options.experiment_scale));
   if (options.tune_experiment) controller.run_program(&experiment);
@@ -259,7 +255,7 @@ std::string run_session(const SessionOptions& options) {
                     options.tune_experiment      ? "replaced by the identification experiment"
                     : options.selfcal_experiment ? "replaced by the self-calibration sweep"
                                                  : (config.controller.pid_enabled ? "on" : "off"),
-                    calibration_text.c_str());
+                    describe(calibration).c_str());
   if (options.tune_experiment) {
     GYROTC_LOG_NOTICE("identification experiment: at most %.0f s; then `gyrotc tune --data %s --out controller.toml`",
                       experiment.plan().max_duration_s(), config.output.record_csv.c_str());
@@ -275,7 +271,7 @@ std::string run_session(const SessionOptions& options) {
                      options.tune_experiment      ? "identification"
                      : options.selfcal_experiment ? "self-calibration"
                                                   : "",
-                     calibration_text, calibration_sha256, unix_now_s()));
+                     calibration, unix_now_s()));
   auto next_publish = started;
   auto next_status = started + std::chrono::duration_cast<clock::duration>(
                                    std::chrono::duration<double>(config.output.status_interval_s));
@@ -302,7 +298,7 @@ std::string run_session(const SessionOptions& options) {
                              "value stays", key.c_str(), config.source.c_str());
         }
         const std::string text = describe(plan.calibration);
-        publisher.set_calibration(text, plan.calibration.sha256);
+        publisher.set_calibration(plan.calibration);
         compensators.push_back(make_compensator(std::move(plan.calibration)));
         controller.set_compensator(*compensators.back());
         GYROTC_LOG_NOTICE("SIGHUP: calibration reloaded from %s", text.c_str());

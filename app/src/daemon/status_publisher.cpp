@@ -22,9 +22,16 @@ constexpr std::uint32_t kNotFaults = kFlagTecSaturated | kFlagTecOff;
 StatusPublisher::StatusPublisher(StatusPublisherOptions options)
     : options_(std::move(options)), status_(options_.identity) {}
 
-void StatusPublisher::set_calibration(std::string description, std::string sha256) {
-  status_.calibration = std::move(description);
-  status_.calibration_sha256 = std::move(sha256);
+void set_status_calibration(DaemonStatus& status, const CalibrationInUse& calibration) {
+  status.calibration = describe(calibration);
+  status.calibration_sha256 = calibration.sha256;
+  status.calibration_lo_c = calibration.model.t_min_c();
+  status.calibration_hi_c = calibration.model.t_max_c();
+  status.calibration_bound_dps = calibration.bound ? calibration.bound->range_dps : kNoValue;
+}
+
+void StatusPublisher::set_calibration(const CalibrationInUse& calibration) {
+  set_status_calibration(status_, calibration);
 }
 
 void StatusPublisher::track_faults(std::uint32_t flags, double now_unix_s) {

@@ -178,6 +178,30 @@ std::string quoted(const std::string& s) {
   return out + "\"";
 }
 
+// [bound]: the grid ascending, one bound per temperature, none negative.
+CalibrationErrorBound read_bound(const Reader& r) {
+  r.only({"confidence", "range_dps", "c", "dps", "how"});
+  CalibrationErrorBound b;
+  b.confidence = r.number("confidence");
+  if (!(b.confidence > 0.0 && b.confidence < 1.0)) r.fail(r.get("confidence"), "confidence", "must be in (0, 1)");
+  b.range_dps = r.number("range_dps");
+  if (!(b.range_dps >= 0.0)) r.fail(r.get("range_dps"), "range_dps", "must be 0 or more deg/s");
+  b.temp_c = r.numbers("c");
+  b.dps = r.numbers("dps");
+  if (b.temp_c.size() < 2) r.fail(r.get("c"), "c", "needs at least two temperatures");
+  for (std::size_t i = 1; i < b.temp_c.size(); ++i) {
+    if (!(b.temp_c[i] > b.temp_c[i - 1])) r.fail(r.get("c"), "c", "must be ascending");
+  }
+  if (b.dps.size() != b.temp_c.size()) {
+    r.fail(r.get("dps"), "dps", "needs one value per temperature of c (" + std::to_string(b.temp_c.size()) + ")");
+  }
+  for (double v : b.dps) {
+    if (!(v >= 0.0)) r.fail(r.get("dps"), "dps", "must be 0 or more deg/s");
+  }
+  if (r.get("how") != nullptr) b.how = r.text("how");
+  return b;
+}
+
 }  // namespace
 
 Calibration parse_calibration(std::string_view text, const std::string& name) {
@@ -190,7 +214,7 @@ Calibration parse_calibration(std::string_view text, const std::string& name) {
   }
   const Reader top(root, "", name);
   top.only({"format", "version", "kind", "range_c", "scale_mv_per_dps", "die_lag_s", "polynomial",
-            "piecewise", "bp_network", "spline", "source"});
+            "piecewise", "bp_network", "spline", "source", "bound"});
   if (top.text("format") != kFormat) {
     top.fail(top.get("format"), "format", "expected \"" + std::string(kFormat) + "\"");
   }
@@ -210,7 +234,9 @@ Calibration parse_calibration(std::string_view text, const std::string& name) {
              "expected \"polynomial\", \"piecewise\", \"spline\", \"bp_network\" or \"paper_reference\", got \"" +
                  kind + "\"");
   }
-  if (kind == "paper_reference") return Calibration{fit::BiasModel::paper_reference(), scale, die_lag};
+  std::optional<CalibrationErrorBound> bound;
+  if (top.get("bound") != nullptr) bound = read_bound(Reader(top.table("bound"), "bound", name));
+  if (kind == "paper_reference") return Calibration{fit::BiasModel::paper_reference(), scale, die_lag, bound};
 
   const std::vector<double> range = top.numbers("range_c");
   if (range.size() != 2 || !(range[0] < range[1])) {
@@ -219,7 +245,7 @@ Calibration parse_calibration(std::string_view text, const std::string& name) {
   if (kind == "polynomial") {
     const Reader r(top.table("polynomial"), "polynomial", name);
     fit::Polynomial p = read_polynomial(r, range[0], range[1]);
-    return Calibration{build(name, "polynomial", [&] { return fit::BiasModel::polynomial(p); }), scale, die_lag};
+    return Calibration{build(name, "polynomial", [&] { return fit::BiasModel::polynomial(p); }), scale, die_lag, bound};
   }
   if (kind == "piecewise") {
     const Reader r(top.table("piecewise"), "piecewise", name);
@@ -246,7 +272,7 @@ Calibration parse_calibration(std::string_view text, const std::string& name) {
       const double hi = i + 1 == segments.size() ? range[1] : pw.breakpoints_c[i];
       pw.segments.push_back(read_polynomial(s, lo, hi));
     }
-    return Calibration{build(name, "piecewise", [&] { return fit::BiasModel::piecewise(pw); }), scale, die_lag};
+    return Calibration{build(name, "piecewise", [&] { return fit::BiasModel::piecewise(pw); }), scale, die_lag, bound};
   }
   if (kind == "spline") {
     const Reader r(top.table("spline"), "spline", name);
@@ -270,7 +296,7 @@ Calibration parse_calibration(std::string_view text, const std::string& name) {
                                     std::to_string(r.numbers(key).size()));
       }
     }
-    return Calibration{build(name, "spline", [&] { return fit::BiasModel::spline(sp); }), scale, die_lag};
+    return Calibration{build(name, "spline", [&] { return fit::BiasModel::spline(sp); }), scale, die_lag, bound};
   }
   {  // kind == "bp_network"
     const Reader r(top.table("bp_network"), "bp_network", name);
@@ -301,7 +327,7 @@ Calibration parse_calibration(std::string_view text, const std::string& name) {
       layer.biases = l.numbers("biases");
       net.layers.push_back(std::move(layer));
     }
-    return Calibration{build(name, "bp_network", [&] { return fit::BiasModel::bp_network(net); }), scale, die_lag};
+    return Calibration{build(name, "bp_network", [&] { return fit::BiasModel::bp_network(net); }), scale, die_lag, bound};
   }
 }
 
@@ -317,7 +343,8 @@ Calibration read_calibration(const std::string& path) {
 fit::BiasModel load_calibration(const std::string& path) { return read_calibration(path).model; }
 
 std::string format_calibration(const fit::BiasModel& model, double scale_mv_per_dps,
-                               const CalibrationSource& source, double die_lag_s) {
+                               const CalibrationSource& source, double die_lag_s,
+                               const std::optional<CalibrationErrorBound>& bound) {
   std::string s;
   s += "# gyrotc calibration: zero-rate output (mV) of the gyro against casing temperature.\n";
   s += "# Compensated rate = (gyro_mv - bias_mv(T)) / scale_mv_per_dps; outside range_c the\n";
@@ -353,6 +380,17 @@ std::string format_calibration(const fit::BiasModel& model, double scale_mv_per_
       for (std::size_t i = 0; i < source.accepted.size(); ++i) s += (i ? ", " : "") + quoted(source.accepted[i]);
       s += "]\n";
     }
+  }
+  if (bound) {
+    s += "\n[bound]\n";
+    s += "# the calibration's own bound on its error (deg/s), from the record's noise: with this\n";
+    s += "# confidence the error stays within range_dps over c's whole range at once, and within\n";
+    s += "# dps[i] at c[i]\n";
+    s += "confidence = " + format_number(bound->confidence) + "\n";
+    s += "range_dps = " + format_number(bound->range_dps) + "\n";
+    s += "c = " + format_numbers(bound->temp_c) + "\n";
+    s += "dps = " + format_numbers(bound->dps) + "\n";
+    if (!bound->how.empty()) s += "how = " + quoted(bound->how) + "\n";
   }
   auto polynomial = [&](const fit::Polynomial& p) {
     s += "# bias_mv = sum of coefficients_mv[k] * x^k, x = (T - center_c) / scale_c\n";
@@ -402,8 +440,9 @@ std::string format_calibration(const fit::BiasModel& model, double scale_mv_per_
 }
 
 void save_calibration(const fit::BiasModel& model, const std::string& path, double scale_mv_per_dps,
-                      const CalibrationSource& source, double die_lag_s) {
-  const std::string text = format_calibration(model, scale_mv_per_dps, source, die_lag_s);
+                      const CalibrationSource& source, double die_lag_s,
+                      const std::optional<CalibrationErrorBound>& bound) {
+  const std::string text = format_calibration(model, scale_mv_per_dps, source, die_lag_s, bound);
   std::ofstream out(path, std::ios::binary | std::ios::trunc);
   if (!out) throw RuntimeFailure(path + ": cannot write: " + std::strerror(errno));
   out << text;

@@ -25,6 +25,7 @@ CalibrationInUse load_calibration_in_use(const std::string& file) {
   c.model = std::move(parsed.model);
   c.scale_mv_per_dps = parsed.scale_mv_per_dps;
   c.die_lag_s = parsed.die_lag_s;
+  c.bound = std::move(parsed.bound);
   c.sha256 = sha256_hex(text.str());
   return c;
 }
@@ -37,6 +38,12 @@ std::string describe(const CalibrationInUse& c) {
     char die[64];
     std::snprintf(die, sizeof die, " of the die, %.1f s behind the sensor", c.die_lag_s);
     what += die;
+  }
+  if (c.bound) {
+    char bound[96];
+    std::snprintf(bound, sizeof bound, ", error <= %.4f deg/s (%.0f %%) over %.1f..%.1f C", c.bound->range_dps,
+                  100.0 * c.bound->confidence, c.bound->lo_c(), c.bound->hi_c());
+    what += bound;
   }
   if (c.file.empty()) return "the seed's built-in reference model (" + what + ")";
   return c.file + ": " + what + ", sha256 " + c.sha256.substr(0, 16);

@@ -15,6 +15,7 @@
 #include "gyrotc/algorithms/calibrate/up_down_difference.hpp"
 #include "gyrotc_catch.hpp"
 #include "sensor_steps.hpp"
+#include "sweep_path.hpp"
 
 using namespace gyrotc;
 
@@ -38,28 +39,8 @@ struct Unit {
 // The casing's path: 300 s at 25 C, down to 10 C, 400 s there, up to 40 C,
 // 400 s there, back to 25 C, 300 s there.
 double casing_at(double t, double& direction) {
-  const double rate = 0.01;
-  struct Leg {
-    double to_c, hold_s;
-  };
-  const Leg legs[] = {{10.0, 400.0}, {40.0, 400.0}, {25.0, 300.0}};
-  double c = 25.0;
-  double start = 300.0;
-  direction = 0.0;
-  if (t < start) return c;
-  for (const Leg& leg : legs) {
-    const double ramp_s = std::fabs(leg.to_c - c) / rate;
-    const double sign = leg.to_c > c ? 1.0 : -1.0;
-    if (t < start + ramp_s) {
-      direction = sign;
-      return c + sign * rate * (t - start);
-    }
-    start += ramp_s;
-    c = leg.to_c;
-    if (t < start + leg.hold_s) return c;
-    start += leg.hold_s;
-  }
-  return c;
+  constexpr test::SweepLeg kLegs[] = {{10.0, 400.0}, {40.0, 400.0}, {25.0, 300.0}};
+  return test::sweep_casing_c(t, 25.0, 300.0, kLegs, 0.01, &direction);
 }
 
 Record sweep(const Unit& u) {

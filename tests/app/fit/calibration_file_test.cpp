@@ -143,3 +143,39 @@ TEST_CASE("calibration errors name the file, line and key") {
              Catch::Contains("layers[0].weights"));
   CHECK_THAT(error_of(with_header("kind = [\n")), Catch::Contains("cal.toml:3:"));
 }
+
+TEST_CASE("a calibration's error bound survives a save and load, and a file without one has none") {
+  Polynomial p;
+  p.coefficients_mv = {80.0, -0.5};
+  p.t_min_c = 8.0;
+  p.t_max_c = 67.0;
+  gyrotc::app::CalibrationErrorBound bound;
+  bound.range_dps = 0.0091;
+  bound.temp_c = {8.0, 37.5, 67.0};
+  bound.dps = {0.008, 0.004, 0.007};
+  bound.how = "bootstrap";
+  const gyrotc::app::Calibration c =
+      parse_calibration(gyrotc::app::format_calibration(BiasModel::polynomial(p), 8.774, {}, 40.0, bound), "b.toml");
+  REQUIRE(c.bound);
+  CHECK(c.bound->confidence == 0.95);
+  CHECK(c.bound->range_dps == 0.0091);
+  CHECK(c.bound->temp_c == bound.temp_c);
+  CHECK(c.bound->dps == bound.dps);
+  CHECK(c.bound->how == "bootstrap");
+  CHECK_FALSE(parse_calibration(gyrotc::app::format_calibration(BiasModel::polynomial(p), 8.774), "n.toml").bound);
+}
+
+TEST_CASE("a bound whose table is out of order, uneven or negative is refused, naming the key") {
+  auto error_of = [](const std::string& bound) {
+    return gyrotc::test::input_error_of([&] {
+      parse_calibration(with_header("kind = \"paper_reference\"\n[bound]\nconfidence = 0.95\nrange_dps = 0.01\n" + bound),
+                        "cal.toml");
+    });
+  };
+  CHECK_THAT(error_of("c = [10.0, 5.0]\ndps = [0.01, 0.01]\n"), Catch::Contains("key 'bound.c': must be ascending"));
+  CHECK_THAT(error_of("c = [5.0, 10.0]\ndps = [0.01]\n"),
+             Catch::Contains("key 'bound.dps': needs one value per temperature of c (2)"));
+  CHECK_THAT(error_of("c = [5.0, 10.0]\ndps = [0.01, -0.01]\n"), Catch::Contains("key 'bound.dps': must be 0 or more"));
+  CHECK_THAT(error_of("c = [5.0, 10.0]\n"), Catch::Contains("key 'bound.dps': missing"));
+  CHECK_THAT(error_of("c = [5.0, 10.0]\ndps = [0.01, 0.01]\nspread = 2\n"), Catch::Contains("key 'bound.spread': unknown key"));
+}

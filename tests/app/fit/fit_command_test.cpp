@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -344,4 +345,58 @@ TEST_CASE("fit --plot writes the calibration report: every point, the model, and
 
 TEST_CASE("fit --plot is refused with --compare, which fits no one model") {
   CHECK_THAT(error_of({"--data", kTable2, "--compare", "--plot", "x.svg"}), Catch::Contains("--plot: not with --compare"));
+}
+
+TEST_CASE("fit states the calibration's own error bound: printed, in --json and in the file's [bound]") {
+  const fs::path out = fs::temp_directory_path() / (std::to_string(::getpid()) + "_bound.toml");
+  const auto j = nlohmann::json::parse(
+      run_fit({"--data", kTable2, "--method", "poly", "--order", "4", "--json", "--out", out.string()}));
+  REQUIRE(j["bound"].is_object());
+  const double range_dps = j["bound"]["range_dps"].get<double>();
+  CHECK(range_dps > 0.0);
+  CHECK(j["bound"]["confidence"].get<double>() == 0.95);
+  CHECK(j["bound"]["range_c"][0].get<double>() == -40.0);
+  CHECK(j["bound"]["range_c"][1].get<double>() == 80.0);
+  CHECK(j["bound"]["c"].size() == j["bound"]["dps"].size());
+  const gyrotc::app::Calibration c = gyrotc::app::read_calibration(out.string());
+  REQUIRE(c.bound);
+  CHECK(c.bound->range_dps == Approx(range_dps).margin(1e-5));
+  const std::string text = run_fit({"--data", kTable2, "--method", "poly", "--order", "4"});
+  CHECK_THAT(text, Catch::Contains("bound: calibration error <= 0.") &&
+                       Catch::Contains(" deg/s (95 %) over -40.0 .. 80.0 C; at one temperature "));
+  fs::remove(out);
+}
+
+TEST_CASE("fit --no-bound writes no bound and says so, and too few refits are refused") {
+  const auto j = nlohmann::json::parse(run_fit({"--data", kTable2, "--method", "poly", "--order", "4", "--json", "--no-bound"}));
+  CHECK(j["bound"].is_null());
+  CHECK_THAT(run_fit({"--data", kTable2, "--method", "poly", "--order", "4", "--no-bound"}),
+             Catch::Contains("bound: none (--no-bound)"));
+  CHECK_THAT(gyrotc::test::input_error_of([] { run_fit({"--data", kTable2, "--bound-replicates", "5"}); }),
+             Catch::Contains("--bound-replicates: must be at least 20"));
+}
+
+TEST_CASE("a noisier recording gets a wider bound from fit") {
+  auto record = [](double noise_mv) {
+    std::string csv = "time_s,sensor_c,gyro_mv\n";
+    std::uint64_t x = 12345;
+    for (int i = 0; i < 7200; ++i) {  // 10 .. 60 C and back at 0.83 C/min, 1 Hz
+      const double t = i < 3600 ? 10.0 + 50.0 * i / 3600.0 : 60.0 - 50.0 * (i - 3600) / 3600.0;
+      x = x * 6364136223846793005ULL + 1442695040888963407ULL;
+      const double u = static_cast<double>(x >> 11) * 0x1.0p-53 - 0.5;  // uniform, sd 0.29
+      csv += std::to_string(i) + "," + std::to_string(t) + "," + std::to_string(100.0 - 0.5 * t + noise_mv * u) + "\n";
+    }
+    return csv;
+  };
+  auto bound_of = [&](double noise_mv, const char* name) {
+    const fs::path p = write_temp(name, record(noise_mv));
+    const auto j = nlohmann::json::parse(run_fit({"--data", p.string(), "--method", "poly", "--order", "2", "--json",
+                                                 "--bound-replicates", "60"}));
+    fs::remove(p);
+    return j["bound"]["range_dps"].get<double>();
+  };
+  const double quiet = bound_of(0.2, "quiet.csv");
+  const double loud = bound_of(2.0, "loud.csv");
+  INFO(quiet << " and " << loud << " deg/s");
+  CHECK(loud > 5.0 * quiet);
 }

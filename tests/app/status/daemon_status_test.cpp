@@ -53,7 +53,7 @@ TEST_CASE("the state is holding within the seed's 0.3 C band and warming or cool
 TEST_CASE("a fault flag outranks every operating state, and model_clamped alone is not a fault") {
   DaemonStatus s = holding();
   s.flags = kFlagModelClamped;
-  CHECK(state_word(s) == "holding");
+  CHECK(state_word(s) == "extrapolating");
   s.flags = kFlagTempStale | kFlagTecSaturated | kFlagTecOff;
   CHECK(state_word(s) == "fault");
   CHECK(status_sentence(s).rfind("fault temp_stale:", 0) == 0);
@@ -188,4 +188,37 @@ TEST_CASE("the model-based loop's estimates are in the JSON and the Prometheus t
   CHECK(text.find("gyrotc_estimated_held_temperature_celsius 55.004\n") != std::string::npos);
   CHECK(text.find("gyrotc_estimated_ambient_temperature_celsius 16.2\n") != std::string::npos);
   CHECK(text.find("gyrotc_holding_current_amperes 0.187\n") != std::string::npos);
+}
+
+TEST_CASE("compensated outside the calibration's range the state is extrapolating, naming the range") {
+  DaemonStatus s = holding();
+  s.calibration_lo_c = 8.0;
+  s.calibration_hi_c = 67.0;
+  s.compensation_c = 5.31;
+  s.casing_c = 5.4;
+  s.flags = kFlagModelClamped;
+  CHECK(state_word(s) == "extrapolating");
+  CHECK(status_sentence(s) ==
+        "extrapolating: compensated at 5.31 °C, outside the calibration's 8.0..67.0 °C; casing 5.40 °C, TEC +0.21 A");
+  s.flags = 0;
+  CHECK(state_word(s) == "warming");
+}
+
+TEST_CASE("the calibration's range and error bound are in the JSON and the Prometheus text, null without a bound") {
+  DaemonStatus s = holding();
+  s.calibration_lo_c = 8.0;
+  s.calibration_hi_c = 67.0;
+  s.calibration_bound_dps = 0.0091;
+  const nlohmann::json j = nlohmann::json::parse(status_json(s));
+  CHECK(j["calibration"]["bound_dps"].get<double>() == 0.0091);
+  CHECK(j["calibration"]["range_c"][0].get<double>() == 8.0);
+  CHECK(j["calibration"]["range_c"][1].get<double>() == 67.0);
+  const std::string text = prometheus_text(s);
+  CHECK(text.find("gyrotc_calibration_error_bound_dps 0.0091\n") != std::string::npos);
+  CHECK(text.find("gyrotc_calibration_range_celsius{end=\"low\"} 8\n") != std::string::npos);
+  CHECK(text.find("gyrotc_state{state=\"extrapolating\"} 0\n") != std::string::npos);
+
+  DaemonStatus unbounded = holding();
+  CHECK(nlohmann::json::parse(status_json(unbounded))["calibration"]["bound_dps"].is_null());
+  CHECK(prometheus_text(unbounded).find("gyrotc_calibration_error_bound_dps") == std::string::npos);
 }

@@ -26,9 +26,11 @@ void add_calibrate_command(CLI::App& app);
 
 // `gyrotc fit --data RECORD --die-lag-s LAG --method auto --out OUT [--plot PLOT] [--json]`,
 // for `gyrotc calibrate`: the same refusals, fit, report and file;
-// extra_json's keys join the --json summary.
-void fit_record_auto(const std::string& data, double die_lag_s, const std::string& out, const std::string& plot,
-                     bool json, const nlohmann::json& extra_json);
+// extra_json's keys join the --json summary. die_lag_s_std > 0: the lag was
+// measured with that standard error, and the calibration's error bound draws
+// each replicate's lag from it.
+void fit_record_auto(const std::string& data, double die_lag_s, double die_lag_s_std, const std::string& out,
+                     const std::string& plot, bool json, const nlohmann::json& extra_json);
 void add_simulate_command(CLI::App& app);
 void add_tune_command(CLI::App& app);
 void add_allan_command(CLI::App& app);

@@ -53,13 +53,17 @@ struct DaemonStatus {
   std::vector<FaultEvent> faults;  // active ones and the last cleared ones, oldest first
   std::string calibration;         // describe(CalibrationInUse)
   std::string calibration_sha256;  // "" for the built-in model
+  double calibration_lo_c = kNoValue;       // its range: outside it the rate is compensated at its end
+  double calibration_hi_c = kNoValue;
+  double calibration_bound_dps = kNoValue;  // its own error bound over the range ([bound]); NaN without one
   LatencyHistogram::Summary latency;
   LoopCounters counters;
 };
 
 // The state in one word: "starting" (no casing reading yet), "fault" (a
 // flag that stops the TEC or the rate output), "experiment", "tec_off",
-// "saturated" (the PID at its limit), "holding" (within kHoldingBandC),
+// "saturated" (the PID at its limit), "extrapolating" (compensated outside
+// the calibration's range: not a fault), "holding" (within kHoldingBandC),
 // "warming" / "cooling" (towards the setpoint) or "stopped".
 std::string state_word(const DaemonStatus& status);
 

@@ -5,6 +5,7 @@
 #include <utility>
 
 #include "gyrotc/app/daemon/daemon_status.hpp"
+#include "gyrotc/app/formats/calibration_in_use.hpp"
 
 namespace gyrotc::app {
 
@@ -20,6 +21,9 @@ struct StatusPublisherOptions {
 // state when it changes (a new state must last 3 updates first, so a loop at
 // the edge of the holding band does not fill the journal). A file that
 // cannot be written is a warning once, never a stop.
+// The calibration's fields of a status: describe(), sha256, range and bound.
+void set_status_calibration(DaemonStatus& status, const CalibrationInUse& calibration);
+
 class StatusPublisher {
  public:
   explicit StatusPublisher(StatusPublisherOptions options);
@@ -27,7 +31,8 @@ class StatusPublisher {
   // The sentence for STATUS=.
   std::string update(const LoopStatus& loop, const LoopCounters& counters, const LatencyHistogram::Summary& latency,
                      double uptime_s, double now_unix_s);
-  void set_calibration(std::string description, std::string sha256);
+  // After a reload: the calibration in use (its description, range and bound).
+  void set_calibration(const CalibrationInUse& calibration);
   // After a reload: the files to write from now on. A file no longer named is
   // removed (it would read as a daemon that died).
   void set_files(const std::string& status_file, const std::string& metrics_file);

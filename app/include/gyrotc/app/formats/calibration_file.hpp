@@ -28,11 +28,25 @@ struct CalibrationSource {
   std::vector<std::string> accepted;
 };
 
+// The calibration's own bound on its error (issue 73; calibrate/calibration_bound.hpp):
+// how far the curve may lie from the unit's true one, from the record's noise.
+struct CalibrationErrorBound {
+  double confidence = 0.95;     // key confidence
+  double range_dps = 0.0;       // key range_dps: the largest error over the grid, all at once
+  std::vector<double> temp_c;   // key c: the grid over the calibrated range, ascending
+  std::vector<double> dps;      // key dps: each temperature's own bound
+  std::string how;              // key how: how it was computed, for people (optional)
+
+  double lo_c() const { return temp_c.front(); }
+  double hi_c() const { return temp_c.back(); }
+};
+
 struct Calibration {
   fit::BiasModel model;
   double scale_mv_per_dps;  // key scale_mv_per_dps; 8.774 (seed Table 2) when absent
   // key die_lag_s; 0 when absent: the model is of the casing sensor's reading
   double die_lag_s = 0.0;
+  std::optional<CalibrationErrorBound> bound;  // table [bound]; absent in files written before it
 };
 
 // Calibration file (TOML), version 1:
@@ -53,6 +67,9 @@ struct Calibration {
 //       (written by `gyrotc fit --method spline|smooth|auto`; the end cubics continue up to range_c)
 //   [bp_network] out_center_mv, out_half_range_mv; [[bp_network.layer]] inputs, outputs,
 //       activation ("tansig" for hidden layers, "linear" for the last), weights (row-major), biases
+//   [bound] (optional) confidence = 0.95, range_dps (the error over the whole grid at once stays
+//       within it with that confidence), c = [...] (ascending, at least 2), dps = [...] (one per
+//       c: each temperature's own bound, deg/s), how = "..." (optional)
 //   [source] (optional, free-form information)
 // Every error is an InputError naming the file, the line where known, and the key.
 Calibration read_calibration(const std::string& path);
@@ -61,10 +78,11 @@ fit::BiasModel load_calibration(const std::string& path);
 
 // The file's text; numbers are written so that they read back bit-for-bit.
 std::string format_calibration(const fit::BiasModel& model, double scale_mv_per_dps,
-                               const CalibrationSource& source = {}, double die_lag_s = 0.0);
+                               const CalibrationSource& source = {}, double die_lag_s = 0.0,
+                               const std::optional<CalibrationErrorBound>& bound = std::nullopt);
 // Writes format_calibration() to path; RuntimeFailure when the file cannot be written.
 void save_calibration(const fit::BiasModel& model, const std::string& path,
                       double scale_mv_per_dps = 8.774, const CalibrationSource& source = {},
-                      double die_lag_s = 0.0);
+                      double die_lag_s = 0.0, const std::optional<CalibrationErrorBound>& bound = std::nullopt);
 
 }  // namespace gyrotc::app

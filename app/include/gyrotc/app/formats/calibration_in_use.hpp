@@ -1,8 +1,10 @@
 #pragma once
 
+#include <optional>
 #include <string>
 
 #include "gyrotc/algorithms/fit/bias_model.hpp"
+#include "gyrotc/app/formats/calibration_file.hpp"
 
 namespace gyrotc::app {
 
@@ -15,6 +17,7 @@ struct CalibrationInUse {
   double scale_mv_per_dps = 8.774;
   double die_lag_s = 0.0;  // the file's die_lag_s: compensated at the die's estimated temperature
   std::string sha256;  // of the file's bytes ("" for the built-in model)
+  std::optional<CalibrationErrorBound> bound;  // the file's [bound]: its own error bound
 };
 
 // Loads `file` ("" = the built-in model). A missing or invalid file is an
@@ -24,7 +27,8 @@ CalibrationInUse load_calibration_in_use(const std::string& file);
 
 // "/etc/gyrotc/calibration.toml: piecewise, -40..80 C, sha256 1f2e..." (the
 // first 16 hex digits; "of the die, 42.2 s behind the sensor" after the range
-// when die_lag_s > 0), or "the seed's built-in reference model (...)".
+// when die_lag_s > 0; "error <= 0.0091 deg/s (95 %) over 8.0..67.0 C" when the
+// file has a [bound]), or "the seed's built-in reference model (...)".
 std::string describe(const CalibrationInUse& calibration);
 
 }  // namespace gyrotc::app
